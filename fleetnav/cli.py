@@ -1,0 +1,40 @@
+"""The `fleetnav` command line. Heavy imports live inside each command so `fleetnav --help` is instant."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="fleetnav: multi-robot fleet and navigation orchestration over a PyBullet world.")
+
+
+@app.command()
+def demo(
+    world: Path = typer.Option(Path("configs/worlds/robot_arena.world"), help="SDF world file"),
+    robots: int = typer.Option(3, min=1, max=50, help="robots to spawn"),
+    seconds: float = typer.Option(20.0, min=0.1, help="sim seconds to run"),
+    fidelity: str = typer.Option("kinematic", help="kinematic or dynamic"),
+    seed: int = typer.Option(0),
+) -> None:
+    """Headless demo: load a world, spawn robots, drive them, print what happened."""
+    from fleetnav.demo import run_demo
+
+    raise typer.Exit(run_demo(world, robots=robots, seconds=seconds, fidelity=fidelity, seed=seed))
+
+
+@app.command()
+def version() -> None:
+    """Print the installed fleetnav version."""
+    from importlib.metadata import version as v
+
+    typer.echo(v("fleetnav"))
+
+
+def main() -> None:
+    app()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,45 @@
+"""sim: the PyBullet world — one client, sim-time clock, robots, sensors, world files, snapshots."""
+
+from sim.clock import Clock, ClockMode
+from sim.config import StrictModel, load_yaml
+from sim.errors import ErrorCode, FleetError
+from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
+from sim.types import (
+    CameraImage,
+    ContactReading,
+    Fidelity,
+    ImuReading,
+    LidarScan,
+    ModelDescription,
+    OdometryReading,
+    Pose2D,
+    Pose3D,
+    WorldDescription,
+)
+from sim.world import World
+from sim.world_types import CommandResult, ModelState
+
+__all__ = [
+    "CameraImage",
+    "Clock",
+    "ClockMode",
+    "CommandResult",
+    "ContactReading",
+    "ErrorCode",
+    "Fidelity",
+    "FleetError",
+    "ImuReading",
+    "LidarScan",
+    "ModelDescription",
+    "ModelState",
+    "OdometryReading",
+    "Pose2D",
+    "Pose3D",
+    "RobotSpec",
+    "StrictModel",
+    "World",
+    "WorldDescription",
+    "default_robot_path",
+    "load_robot_spec",
+    "load_yaml",
+]

@@ -1,0 +1,127 @@
+"""Adding robots to a World, teleporting them, and reading dynamic robots back from PyBullet."""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pybullet as p
+
+from sim.errors import ErrorCode, FleetError
+from sim.kinematic_collisions import RawContact, overlaps
+from sim.robot_body import dynamic_robot, kinematic_proxy
+from sim.robot_spec import RobotSpec
+from sim.sensors.lidar import LidarConfig
+from sim.transforms import quat_to_rpy, rpy_to_quat
+from sim.types import Fidelity, Pose2D
+
+if TYPE_CHECKING:
+    from sim.world import World
+
+NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]{0,63}$")
+
+
+def spawn_robot(world: World, name: str, pose: Pose2D, spec: RobotSpec, fidelity: Fidelity, *,
+                check_collision: bool) -> str:
+    if not NAME_RE.match(name):
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"invalid robot name '{name}'",
+                         "use a letter then letters, digits, '_' or '-' (at most 64)")
+    if world.table.has(name) or name in world.models.names():
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"name '{name}' is already in use", "pick another name")
+    if fidelity not in ("kinematic", "dynamic"):
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown fidelity '{fidelity}'", "use kinematic or dynamic")
+    body = kinematic_proxy(world.client, spec) if fidelity == "kinematic" else dynamic_robot(world.client, spec)
+    s = spec.sensors
+    now = world.time
+
+    def period(enabled: bool, hz: float) -> float:
+        return 1.0 / hz if enabled else 0.0
+
+    floats = {
+        "x": pose.x, "y": pose.y, "yaw": pose.yaw,
+        "max_v": spec.limits.max_linear, "max_w": spec.limits.max_angular,
+        "max_a": spec.limits.max_linear_accel, "max_alpha": spec.limits.max_angular_accel,
+        # REP-105: the odom frame starts where the robot starts, so map→odom is the identity at spawn.
+        "odom_x": pose.x, "odom_y": pose.y, "odom_yaw": pose.yaw,
+        "wheel_radius": spec.wheels.radius, "wheel_sep": spec.wheels.separation, "radius": spec.footprint_radius,
+        "lidar_period": period(s.lidar.enabled, s.lidar.rate_hz), "imu_period": period(s.imu.enabled, s.imu.rate_hz),
+        "odom_period": period(s.odometry.enabled, s.odometry.rate_hz),
+        "next_lidar": now + period(s.lidar.enabled, s.lidar.rate_hz),
+        "next_imu": now + period(s.imu.enabled, s.imu.rate_hz),
+        "next_odom": now + period(s.odometry.enabled, s.odometry.rate_hz),
+        "imu_stamp": now, "odom_stamp": now,
+        "lidar_noise_scale": 1.0, "imu_noise_scale": 1.0, "odom_noise_scale": 1.0,
+        "lidar_noise_std": s.lidar.noise_std, "imu_accel_std": s.imu.accel_noise_std,
+        "imu_gyro_std": s.imu.gyro_noise_std,
+        "imu_bax": s.imu.accel_bias[0], "imu_bay": s.imu.accel_bias[1], "imu_baz": s.imu.accel_bias[2],
+        "imu_bgx": s.imu.gyro_bias[0], "imu_bgy": s.imu.gyro_bias[1], "imu_bgz": s.imu.gyro_bias[2],
+        "odom_slip_std": s.odometry.slip_std, "odom_radius_scale": 1.0 + s.odometry.wheel_radius_error,
+    }
+    row = world.table.add(name, body.uid, floats, {"kinematic": fidelity == "kinematic"})
+    world.specs[name], world.bodies[name], world.fidelities[name] = spec, body, fidelity
+    world._lidar_cfg.append(LidarConfig.from_spec(spec))
+    world._sync_labels()
+    try:
+        place_robot(world, row, pose, check_collision=check_collision)
+    except FleetError:
+        world.remove_robot(name)
+        raise
+    return name
+
+
+def place_robot(world: World, row: int, pose: Pose2D, *, check_collision: bool) -> None:
+    """Teleport to `pose` at rest; refuse (and stay put) if it overlaps anything."""
+    t, c = world.table, world.client
+    name = t.names[row]
+    body = world.bodies[name]
+    old = (float(t.f["x"][row]), float(t.f["y"][row]), float(t.f["yaw"][row]))
+    z = 0.0 if world.fidelities[name] == "kinematic" else world.specs[name].wheels.radius - _axle_z(world, name)
+    p.resetBasePositionAndOrientation(body.uid, (pose.x, pose.y, z), rpy_to_quat(0, 0, pose.yaw), physicsClientId=c)
+    p.resetBaseVelocity(body.uid, (0, 0, 0), (0, 0, 0), physicsClientId=c)
+    if check_collision:
+        hit = overlaps(world, body.uid)
+        if hit:
+            p.resetBasePositionAndOrientation(body.uid, (old[0], old[1], z), rpy_to_quat(0, 0, old[2]),
+                                              physicsClientId=c)
+            raise FleetError(ErrorCode.COLLISION, f"pose ({pose.x:.3f}, {pose.y:.3f}) of '{name}' overlaps {hit}",
+                             "choose a free pose (see the occupancy map)")
+    t.f["x"][row], t.f["y"][row], t.f["yaw"][row] = pose.x, pose.y, pose.yaw
+    for col in ("v", "w", "cmd_v", "cmd_w", "sp_v", "sp_w", "prev_v", "prev_w"):
+        t.f[col][row] = 0.0
+
+
+def _axle_z(world: World, name: str) -> float:
+    """Height of the wheel axle above the URDF base frame (0 when base_link is on the axle)."""
+    body = world.bodies[name]
+    info = p.getJointInfo(body.uid, body.left_wheel, physicsClientId=world.client)
+    return float(info[14][2])  # parentFramePos z of the wheel joint, in the base (COM-free) frame
+
+
+def read_dynamic_state(world: World, i: int) -> None:
+    """Copy a dynamic robot's pose, body twist and wheel angles from PyBullet into the table."""
+    t, c = world.table, world.client
+    uid = int(t.body[i])
+    body = world.bodies[t.names[i]]
+    pos, orn = p.getBasePositionAndOrientation(uid, physicsClientId=c)
+    lin, ang = p.getBaseVelocity(uid, physicsClientId=c)
+    yaw = quat_to_rpy(orn)[2]
+    t.f["x"][i], t.f["y"][i], t.f["yaw"][i] = pos[0], pos[1], yaw
+    t.f["v"][i] = lin[0] * math.cos(yaw) + lin[1] * math.sin(yaw)
+    t.f["w"][i] = ang[2]
+    js = p.getJointStates(uid, [body.left_wheel, body.right_wheel], physicsClientId=c)
+    t.f["wheel_l"][i], t.f["wheel_r"][i] = js[0][0], js[1][0]
+    if not all(np.isfinite(pos)) or not all(np.isfinite(lin)):
+        t.f["v"][i] = np.nan  # the health check names this robot
+
+
+def dynamic_contacts(world: World, name: str) -> tuple[RawContact, ...]:
+    """Contacts of a dynamic robot with anything but the ground (wheels on the floor are not bumps)."""
+    uid = world.bodies[name].uid
+    out = []
+    for ct in p.getContactPoints(bodyA=uid, physicsClientId=world.client):
+        if ct[2] in world._ground_uids or ct[2] == uid:
+            continue
+        out.append((int(ct[2]), (ct[5][0], ct[5][1], ct[5][2]), float(ct[9])))
+    return tuple(out)

@@ -1,0 +1,1 @@
+"""Sensor models, each sampled at its own sim-time rate for every due robot at once."""

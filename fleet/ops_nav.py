@@ -1,0 +1,109 @@
+"""FleetService operations for navigation: navigators per robot, costmaps, tasks, plans, maps."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from fleet.core import ServiceCore
+from planning import LayeredCostmap, OccupancyGrid, PlanResult, get_planner, rasterize_world
+from planning.navigator import Navigator, NavigatorConfig, make_navigator
+from sim import FleetError, Pose2D
+from sim.errors import ErrorCode
+
+if TYPE_CHECKING:
+    pass
+    from fleet.tasks.base import Task
+
+
+class NavOps(ServiceCore):
+    """Mixed into FleetService."""
+
+    def static_grid(self) -> OccupancyGrid:
+        """The world rasterised at robot height once per world (shared by every robot's costmap)."""
+        if self._static_grid is None:
+            self._static_grid = rasterize_world(self.world.description, resolution=self.config.costmap_resolution)
+        assert self._static_grid is not None
+        return self._static_grid
+
+    def costmap_for(self, robot: str) -> LayeredCostmap:
+        """Each robot's own costmap (its obstacle layer sees what its lidar sees), keep-outs shared."""
+        if robot not in self._costmaps:
+            spec = self.world.robot_spec(robot)
+            cm = LayeredCostmap(self.static_grid(), robot_radius=spec.footprint_radius,
+                                sensor_offset=(spec.mast.x_offset, 0.0))
+            for poly in self._keepouts:
+                cm.add_keepout(poly)
+            self._costmaps[robot] = cm
+        return self._costmaps[robot]
+
+    def nav_config(self, overrides: dict[str, Any] | None = None) -> NavigatorConfig:
+        merged = {**self.config.navigation, **(overrides or {})}
+        try:
+            return NavigatorConfig.model_validate(merged)
+        except ValueError as exc:
+            raise FleetError(ErrorCode.INVALID_CONFIG, f"navigation settings: {exc}") from exc
+
+    def make_navigator(self, robot: str, overrides: dict[str, Any] | None = None) -> Navigator:
+        return make_navigator(self.nav_config(overrides), costmap=self.costmap_for(robot),
+                              spec=self.world.robot_spec(robot))
+
+    # ---- front-door operations -------------------------------------------------------------------------
+
+    def submit_task(self, type_name: str, robot: str, params: dict[str, Any] | None = None, *,
+                    priority: int = 0, client: str = "default") -> dict[str, Any]:
+        """Queue a task; returns its id at once (long actions report through task_status)."""
+
+        def do() -> dict[str, Any]:
+            self.registry.get(robot)
+            holder = self.safety.holder(robot)
+            if holder is not None and holder != client:
+                raise FleetError(ErrorCode.LEASE_HELD, f"robot '{robot}' is controlled by client '{holder}'",
+                                 "wait for its lease to lapse or ask that client to release it")
+            if self.safety.manual.get(robot) is not None:  # a new task takes over from manual driving
+                self.safety.manual.pop(robot)
+            return self.tasks.submit(type_name, robot, params, priority=priority).to_dict()
+
+        return self.call(do)
+
+    def navigate(self, robot: str, goal: Pose2D, *, align_yaw: bool = False,
+                 client: str = "default") -> dict[str, Any]:
+        return self.submit_task("go_to", robot, {"goal": goal, "align_yaw": align_yaw}, client=client)
+
+    def task_status(self, task_id: str) -> dict[str, Any]:
+        return self.call(lambda: self.tasks.get(task_id).to_dict())
+
+    def cancel_task(self, task_id: str) -> dict[str, Any]:
+        return self.call(lambda: self.tasks.cancel(task_id).to_dict())
+
+    def list_tasks(self, robot: str | None = None, include_done: bool = False) -> list[dict[str, Any]]:
+        def do() -> list[dict[str, Any]]:
+            out: list[Task] = [t for t in self.tasks.tasks.values() if (robot is None or t.robot == robot)
+                               and (include_done or not t.state.done)]
+            return [t.to_dict() for t in out]
+
+        return self.call(do)
+
+    def plan_path(self, robot: str, goal: Pose2D, planner: str | None = None,
+                  start: Pose2D | None = None) -> PlanResult:
+        """Preview a plan for `robot` (nothing moves)."""
+
+        def do() -> PlanResult:
+            s = start or self.world.robot_pose(robot)
+            cfg = self.nav_config()
+            spec = dict(cfg.planner) if planner is None else {"type": planner}
+            return get_planner(**spec).plan(s, goal, self.costmap_for(robot))
+
+        return self.call(do)
+
+    def add_keepout(self, polygon: list[tuple[float, float]]) -> int:
+        """Forbid a polygonal zone for every robot's planner (and robots spawned later)."""
+        if len(polygon) < 3:
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, "a keep-out zone needs at least 3 vertices")
+
+        def do() -> int:
+            self._keepouts.append([(float(x), float(y)) for x, y in polygon])
+            for cm in self._costmaps.values():
+                cm.add_keepout(polygon)
+            return len(self._keepouts)
+
+        return self.call(do)

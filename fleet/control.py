@@ -86,8 +86,11 @@ class ControlLoop:
         f = world.table.f
         for robot, (v, w) in desired.items():  # 4. the envelope gates everything
             i = world.table.index(robot)
-            gv, gw, _ = safety.gate(robot, v, w, float(f["x"][i]), float(f["y"][i]), float(f["yaw"][i]))
-            world.set_cmd_vel(robot, gv, gw)
+            gv, gw, why = safety.gate(robot, v, w, float(f["x"][i]), float(f["y"][i]), float(f["yaw"][i]))
+            if why == "e-stop":
+                world.emergency_stop(robot)
+            else:
+                world.set_cmd_vel(robot, gv, gw)
         self._near_misses(now)
 
     def after_step(self, before: tuple[np.ndarray, np.ndarray]) -> None:

@@ -87,7 +87,7 @@ class RobotOps(ServiceCore):
             targets = [self.registry.get(robot).name] if robot else self.world.robot_names()
             self.safety.estop(robot, reason)
             for r in targets:
-                self.world.set_cmd_vel(r, 0.0, 0.0)
+                self.world.emergency_stop(r)
             self.events.publish(self.world.time, "estop", targets, reason, fleet=robot is None)
             self._publish()
             return targets

@@ -179,6 +179,13 @@ class World:
         f["cmd_v"][i], f["cmd_w"][i] = av, aw
         return CommandResult(name, v, w, av, aw, bool(reasons), "; ".join(reasons), self._time)
 
+    def emergency_stop(self, name: str) -> None:
+        """Brake now, bypassing the acceleration ramp: the command and the drive setpoint drop to zero
+        (a kinematic robot halts this step; a dynamic one's wheel motors brake with their full torque)."""
+        i, f = self._row(name), self.table.f
+        for col in ("cmd_v", "cmd_w", "sp_v", "sp_w"):
+            f[col][i] = 0.0
+
     def set_robot_pose(self, name: str, pose: Pose2D, *, check_collision: bool = True) -> None:
         """Teleport a robot (ground truth); its odometry keeps its own drifting estimate."""
         from sim.robot_spawn import place_robot

@@ -13,6 +13,7 @@ from pathlib import Path
 from pydantic import Field, model_validator
 
 from sim.config import StrictModel, load_yaml
+from sim.types import Pose3D
 
 Vec3 = tuple[float, float, float]
 
@@ -166,6 +167,11 @@ class RobotSpec(StrictModel):
         half_x = self.chassis.size[0] / 2
         half_y = max(self.chassis.size[1] / 2, self.wheels.separation / 2 + self.wheels.width / 2)
         return math.hypot(half_x, half_y)
+
+    @property
+    def camera_mount(self) -> Pose3D:
+        """Camera link pose in base_link: on the chassis front face, 3 cm below its top, looking forward."""
+        return Pose3D(self.chassis.size[0] / 2 + 0.01, 0.0, self.chassis_z + self.chassis.size[2] / 2 - 0.03)
 
     @property
     def footprint(self) -> list[tuple[float, float]]:

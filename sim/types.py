@@ -216,28 +216,31 @@ class WorldDescription:
                 if any(c.geometry.kind != "plane" for _, c, _ in m.world_collisions())]
 
     def bounds(self, margin: float = 0.0) -> tuple[float, float, float, float]:
-        """(xmin, ymin, xmax, ymax) of all non-plane collision geometry (a conservative AABB)."""
-        xs: list[float] = []
-        ys: list[float] = []
+        """(xmin, ymin, xmax, ymax) of all non-plane collision geometry (axis-aligned box of rotated shapes)."""
+        pts: list[np.ndarray] = []
         for m in self.models:
             for _, c, wp in m.world_collisions():
-                r = _bounding_radius(c.geometry)
-                if r is None:
+                half = _half_extents(c.geometry)
+                if half is None:
                     continue
-                xs += [wp.x - r, wp.x + r]
-                ys += [wp.y - r, wp.y + r]
-        if not xs:
+                corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+                pts.append((wp.matrix()[:3, :3] @ corners.T).T[:, :2] + (wp.x, wp.y))
+        if not pts:
             return (-5.0 - margin, -5.0 - margin, 5.0 + margin, 5.0 + margin)
-        return (min(xs) - margin, min(ys) - margin, max(xs) + margin, max(ys) + margin)
+        allp = np.vstack(pts)
+        lo, hi = allp.min(axis=0), allp.max(axis=0)
+        return (float(lo[0]) - margin, float(lo[1]) - margin, float(hi[0]) + margin, float(hi[1]) + margin)
 
 
-def _bounding_radius(g: Geometry) -> float | None:
+def _half_extents(g: Geometry) -> np.ndarray | None:
     if isinstance(g, Box):
-        return 0.5 * math.sqrt(g.size[0] ** 2 + g.size[1] ** 2)
-    if isinstance(g, Cylinder | Sphere):
-        return g.radius
+        return np.asarray(g.size, dtype=float) / 2
+    if isinstance(g, Cylinder):
+        return np.array([g.radius, g.radius, g.length / 2])
+    if isinstance(g, Sphere):
+        return np.array([g.radius] * 3)
     if isinstance(g, Mesh):
-        return 0.5 * max(g.scale)  # unknown extent: a nominal unit mesh
+        return np.asarray(g.scale, dtype=float) / 2  # unknown extent: a nominal unit mesh
     return None
 
 
@@ -307,9 +310,12 @@ class CameraImage:
 
     @property
     def intrinsics(self) -> tuple[float, float, float, float]:
-        """(fx, fy, cx, cy) in pixels; `fov_deg` is the horizontal FOV (Gazebo's horizontal_fov), pixels square."""
+        """(fx, fy, cx, cy) in pixels; `fov_deg` is the horizontal FOV (Gazebo's horizontal_fov), pixels square.
+
+        The principal point follows PyBullet's TinyRenderer, which samples each pixel at its corner: rendered
+        pixel (i, j) shows ideal pixel (i − ½, j + ½), measured in tests/sim/perception (docs/perception.md)."""
         fx = 0.5 * self.width / math.tan(math.radians(self.fov_deg) / 2)
-        return (fx, fx, (self.width - 1) / 2, (self.height - 1) / 2)
+        return (fx, fx, self.width / 2, self.height / 2 - 1)
 
     @property
     def vertical_fov_deg(self) -> float:

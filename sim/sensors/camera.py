@@ -12,8 +12,8 @@ from sim.types import CameraImage, Pose3D
 
 
 def camera_mount(spec: RobotSpec) -> Pose3D:
-    """Camera link pose in base_link: on the chassis front face, at the chassis top, looking forward."""
-    return Pose3D(spec.chassis.size[0] / 2 + 0.01, 0.0, spec.chassis_z + spec.chassis.size[2] / 2 - 0.03)
+    """Camera link pose in base_link (defined once, in RobotSpec.camera_mount)."""
+    return spec.camera_mount
 
 
 def render(client: int, robot: str, stamp: float, cam_pose: Pose3D, width: int, height: int, fov_deg: float,

@@ -49,6 +49,10 @@ class ServiceCore:
         self._wake = threading.Event()
         self.world: World
         self._specs: dict[str, RobotSpec] = {}
+        # Hooks for front doors, run on the sim thread. Listeners get each published snapshot; a gate, when
+        # set, is called before every control tick and may block (lock-step agents over Zenoh).
+        self.tick_listeners: list[Callable[[FleetSnapshot], None]] = []
+        self.control_gate: Callable[[float], None] | None = None
         self._build(self.config.world)
 
     # ---- construction and reset -----------------------------------------------------------------------
@@ -188,12 +192,16 @@ class ServiceCore:
         w = self.world
         for _ in range(n):
             if w.step_count % self._steps_per_control == 0:
+                if self.control_gate is not None:
+                    self.control_gate(w.time)  # lock-step: wait for the agents' commands for this tick
                 self.control.tick()  # behaviours → avoidance → safety envelope → world commands
             before = w.table.f["x"].copy(), w.table.f["y"].copy()
             w.step()
             self.control.after_step(before)  # battery, collisions, near misses
             if w.step_count % self._steps_per_control == 0:
                 self._publish()
+                for listener in self.tick_listeners:
+                    listener(self._snapshot)
 
     def _publish(self) -> None:
         w, reg = self.world, self.registry

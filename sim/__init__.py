@@ -16,7 +16,10 @@ from sim.types import (
     Pose3D,
     WorldDescription,
 )
+from sim.sdf_parser import parse_sdf, parse_sdf_string
+from sim.sdf_writer import save_sdf, write_sdf
 from sim.world import World
+from sim.worldgen import cluttered_arena, warehouse
 from sim.world_types import CommandResult, ModelState
 
 __all__ = [
@@ -39,7 +42,13 @@ __all__ = [
     "StrictModel",
     "World",
     "WorldDescription",
+    "cluttered_arena",
     "default_robot_path",
     "load_robot_spec",
     "load_yaml",
+    "parse_sdf",
+    "parse_sdf_string",
+    "save_sdf",
+    "warehouse",
+    "write_sdf",
 ]

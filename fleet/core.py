@@ -81,7 +81,7 @@ class ServiceCore:
         self._steps_per_control = max(1, round(c.physics_hz / c.control_hz))
         self._rtf_window: tuple[float, float] = (time.perf_counter(), self.world.time)
         self._rtf = float("nan")
-        self._snapshots: dict[str, Any] = {}
+        self._snapshots: dict[str, tuple[Any, np.ndarray]] = {}  # name → (world snapshot, battery)
         self._publish()
 
     def _init_extensions(self) -> None:

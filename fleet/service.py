@@ -10,10 +10,11 @@ from __future__ import annotations
 from fleet.ops_fleet import FleetOps
 from fleet.ops_nav import NavOps
 from fleet.ops_robots import RobotOps
+from fleet.ops_sim import SimOps
 from fleet.ops_tasks import TaskOps
 
 
-class FleetService(RobotOps, NavOps, TaskOps, FleetOps):
+class FleetService(SimOps, RobotOps, NavOps, TaskOps, FleetOps):
     def _init_extensions(self) -> None:
         self._init_task_ops()
         self._init_fleet_ops()

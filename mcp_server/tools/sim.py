@@ -1,0 +1,149 @@
+"""Simulation tools: status, clock, stepping, reset, performance, worlds, snapshots."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from mcp.server.mcpserver import Context
+from pydantic import Field
+
+from mcp_server.app import app_of, run
+from mcp_server.registry import ToolRegistrar
+from mcp_server.shaping import Answer
+
+
+class SimStatus(Answer):
+    world: str
+    clock: str
+    speed: float
+    robots: int
+    models: int
+    real_time_factor: float | None
+    physics_hz: float
+    control_hz: float
+    step_count: int
+    world_file: str
+
+
+class SimTime(Answer):
+    step_count: int
+    clock: str
+
+
+class Performance(Answer):
+    steps: int
+    step_ms: float
+    real_time_factor: float | None
+    robots: int
+    hotspots: list[dict[str, Any]]
+
+
+class WorldList(Answer):
+    worlds: list[dict[str, str]]
+
+
+class Snapshots(Answer):
+    snapshots: list[dict[str, Any]]
+
+
+class Done(Answer):
+    message: str
+
+
+def register(tool: ToolRegistrar) -> None:
+    @tool(read_only=True, title="Simulation status")
+    async def sim_status(ctx: Context) -> SimStatus:
+        """World, clock mode, speed, robot and model counts, real-time factor, physics and control rates."""
+        svc = app_of(ctx).service
+        s = await run(ctx, svc.status)
+        return SimStatus(sim_time=s["time"], world=s["world"], clock=s["clock"], speed=s["speed"],
+                         robots=s["robots"], models=s["models"], real_time_factor=s["real_time_factor"],
+                         physics_hz=s["physics_hz"], control_hz=s["control_hz"], step_count=s["step_count"],
+                         world_file=s["world_file"])
+
+    @tool(read_only=False, idempotent=True, title="Pause the simulation")
+    async def pause_simulation(ctx: Context) -> SimTime:
+        """Stop sim time (robots freeze; commands are still accepted and apply when time runs again)."""
+        svc = app_of(ctx).service
+        await run(ctx, svc.pause)
+        return SimTime(sim_time=svc.snapshot.time, step_count=svc.snapshot.step_count, clock="paused")
+
+    @tool(read_only=False, idempotent=True, title="Run the simulation")
+    async def unpause_simulation(ctx: Context, speed: float | None = Field(None, gt=0, le=1000,
+                                 description="real-time factor to run at; omitted keeps the current one")) -> SimTime:
+        """Let sim time run at real time × speed."""
+        svc = app_of(ctx).service
+        await run(ctx, svc.resume, speed)
+        return SimTime(sim_time=svc.snapshot.time, step_count=svc.snapshot.step_count, clock="realtime")
+
+    @tool(read_only=False, idempotent=True, title="Set simulation speed")
+    async def set_simulation_speed(ctx: Context, speed: float = Field(gt=0, le=1000,
+                                   description="sim seconds per wall second")) -> SimTime:
+        """Change the real-time factor the clock aims for (it keeps its mode)."""
+        svc = app_of(ctx).service
+        await run(ctx, svc.set_speed, speed)
+        return SimTime(sim_time=svc.snapshot.time, step_count=svc.snapshot.step_count, clock=svc.clock.mode.value)
+
+    @tool(read_only=False, title="Step the simulation")
+    async def step_simulation(ctx: Context, steps: int = Field(1, ge=1, le=1_000_000,
+                              description="physics steps (1/physics_hz s each)")) -> SimTime:
+        """Advance exactly `steps` physics steps now, as fast as possible, then report the sim time."""
+        svc = app_of(ctx).service
+        t = await run(ctx, svc.step, steps)
+        return SimTime(sim_time=t, step_count=svc.snapshot.step_count, clock=svc.clock.mode.value)
+
+    @tool(read_only=False, destructive=True, title="Reset the world")
+    async def reset_simulation(ctx: Context) -> Done:
+        """Rebuild the world from its file: every robot removed, tasks canceled, sim time 0."""
+        svc = app_of(ctx).service
+        await run(ctx, svc.reset)
+        return Done(sim_time=svc.snapshot.time, message=f"world {svc.world.name} reset")
+
+    @tool(read_only=True, title="Simulation performance")
+    async def profile_simulation(ctx: Context, steps: int = Field(100, ge=1, le=10_000)) -> Performance:
+        """Run `steps` steps under a profiler: step cost, real-time factor and where the time goes."""
+        svc = app_of(ctx).service
+        p = await run(ctx, svc.performance, steps)
+        return Performance(sim_time=svc.snapshot.time, steps=p["steps"], step_ms=p["step_ms"],
+                           real_time_factor=p["real_time_factor"], robots=p["robots"], hotspots=p["hotspots"])
+
+    @tool(read_only=True, title="List worlds")
+    async def list_worlds(ctx: Context) -> WorldList:
+        """The shipped worlds (configs/worlds) that load_world accepts by name."""
+        svc = app_of(ctx).service
+        return WorldList(sim_time=svc.snapshot.time, worlds=svc.list_worlds())
+
+    @tool(read_only=False, destructive=True, title="Load a world")
+    async def load_world(ctx: Context, world: str = Field(description="a shipped world name, or an SDF file path "
+                                                                      "inside the workspace")) -> Done:
+        """Replace the world with another SDF world (robots are removed, tasks canceled)."""
+        svc = app_of(ctx).service
+        await run(ctx, svc.load_world, world)
+        return Done(sim_time=svc.snapshot.time, message=f"loaded {svc.world_path}")
+
+    @tool(read_only=False, title="Save the world as SDF")
+    async def save_world(ctx: Context, path: str = Field(description="output .world path inside the workspace")) \
+            -> Done:
+        """Write the current world (models at their current poses) as an SDF 1.9 file."""
+        svc = app_of(ctx).service
+        out = await run(ctx, svc.save_world, path)
+        return Done(sim_time=svc.snapshot.time, message=f"saved {out}")
+
+    @tool(read_only=False, title="Save a snapshot")
+    async def save_snapshot(ctx: Context, name: str = Field(min_length=1, max_length=64)) -> Done:
+        """Remember the exact world state (poses, velocities, sensors, time, RNG, batteries) under a name."""
+        svc = app_of(ctx).service
+        s = await run(ctx, svc.save_snapshot, name)
+        return Done(sim_time=s["time"], message=f"snapshot '{name}' saved with {len(s['robots'])} robots")
+
+    @tool(read_only=False, destructive=True, title="Restore a snapshot")
+    async def restore_snapshot(ctx: Context, name: str) -> Done:
+        """Go back exactly to a saved snapshot; running tasks are canceled."""
+        svc = app_of(ctx).service
+        s = await run(ctx, svc.restore_snapshot, name)
+        return Done(sim_time=s["time"], message=f"restored '{name}'")
+
+    @tool(read_only=True, title="List snapshots")
+    async def list_snapshots(ctx: Context) -> Snapshots:
+        svc = app_of(ctx).service
+        return Snapshots(sim_time=svc.snapshot.time, snapshots=await run(ctx, svc.list_snapshots))

@@ -32,6 +32,11 @@ def version() -> None:
     typer.echo(v("fleetnav"))
 
 
+from fleetnav.cmd_check import check_app  # noqa: E402  (typer sub-app; its commands import lazily)
+
+app.add_typer(check_app, name="check")
+
+
 def main() -> None:
     app()
 

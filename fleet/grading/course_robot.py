@@ -57,9 +57,10 @@ def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:
     sep = robot.wheel_separation(*wheels) if len(wheels) == 2 else math.nan
     rep.add("wheel_separation", "wheel separation 0.4 m", 2, _close(sep, 0.4), f"{sep:.3f} m", "0.4 m")
 
-    masts = [c.geometry.length for lk in robot.links.values() if "mast" in lk.name.lower() for c in lk.collisions
+    masts = [c.geometry.length if isinstance(c.geometry, Cylinder) else c.geometry.size[2]
+             for lk in robot.links.values() if "mast" in lk.name.lower() for c in lk.collisions
              if isinstance(c.geometry, Cylinder | Box)]
-    mast_h = max(masts, default=math.nan) if not boxes or masts else math.nan
+    mast_h = max(masts, default=math.nan)
     rep.add("mast", "sensor mast 0.3 m tall", 2, _close(mast_h, 0.3), f"{mast_h:.3f} m", "0.3 m")
 
     mass = robot.total_mass()
@@ -71,8 +72,11 @@ def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:
             "all links" if not no_inertial else f"missing/invalid on {', '.join(no_inertial)}", "every link")
 
     friction_links = [*[robot.joints[j].child for j in wheels], *[c.name for c in casters]]
-    unfrictioned = [n for n in friction_links if not (robot.links[n].contact and robot.links[n].contact.lateral
-                                                      is not None) and "mu1" not in robot.links[n].gazebo]
+    def has_friction(name: str) -> bool:
+        link = robot.links[name]
+        return (link.contact is not None and link.contact.lateral is not None) or "mu1" in link.gazebo
+
+    unfrictioned = [n for n in friction_links if not has_friction(n)]
     rep.add("friction", "friction coefficients on wheels and caster", 2, bool(friction_links) and not unfrictioned,
             "all set" if not unfrictioned else f"missing on {', '.join(unfrictioned)}", "wheels and caster")
 

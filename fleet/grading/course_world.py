@@ -23,7 +23,7 @@ def _kinds(model: ModelDescription) -> set[str]:
 def _is_barrier(model: ModelDescription) -> bool:
     for _, c, _ in model.world_collisions():
         if isinstance(c.geometry, Box):
-            sx, sy, _ = sorted(c.geometry.size[:2], reverse=True) + [c.geometry.size[2]]
+            sx, sy = sorted(c.geometry.size[:2], reverse=True)
             if sx >= BARRIER_MIN_LENGTH and sy <= BARRIER_MAX_THICKNESS:
                 return True
     return False

@@ -43,7 +43,7 @@ def _drop(root: ET.Element, path: str, keep: int = 0) -> None:
 
 WORLD_MUTATIONS = {
     "lights": lambda r: _drop(r, ".//world/light", keep=1),
-    "shape_variety": lambda r: _drop(r, ".//model[@name='sphere_ball']") or _drop(r, ".//model[@name='sphere_boulder']"),
+    "shape_variety": lambda r: [_drop(r, f".//model[@name='{m}']") for m in ("sphere_ball", "sphere_boulder")],
     "spawn_point": lambda r: _drop(r, ".//world/frame"),
     "ground_textured": lambda r: _drop(r, ".//model[@name='ground_plane']//material"),
 }

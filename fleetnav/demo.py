@@ -29,7 +29,7 @@ def run_demo(world_file: Path, *, robots: int, seconds: float, fidelity: str, se
 
     console = Console()
     try:
-        world = World.from_sdf(world_file, physics_hz=100, seed=seed, fidelity=fidelity)  # type: ignore[arg-type]
+        world = World.from_sdf(world_file, physics_hz=100, seed=seed, fidelity=fidelity)
     except FleetError as exc:
         console.print(f"[red]error[/red] {exc}")
         return 2

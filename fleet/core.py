@@ -13,7 +13,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
-from typing import TYPE_CHECKING, Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, Self, TypeVar, cast
 
 import numpy as np
 
@@ -24,7 +24,7 @@ from fleet.events import EventBus
 from fleet.paths import Workspace, robot_file, world_file
 from fleet.safety import SafetyEnvelope
 from fleet.types import FleetSnapshot
-from sim import Clock, ClockMode, FleetError, RobotSpec, World, load_robot_spec
+from sim import Clock, ClockMode, FleetError, Pose2D, RobotSpec, World, load_robot_spec
 from sim.errors import ErrorCode
 
 if TYPE_CHECKING:
@@ -48,6 +48,7 @@ class ServiceCore:
         self._running = False
         self._wake = threading.Event()
         self.world: World
+        self.docks: dict[str, Pose2D] = {}
         self._specs: dict[str, RobotSpec] = {}
         # Hooks for front doors, run on the sim thread. Listeners get each published snapshot; a gate, when
         # set, is called before every control tick and may block (lock-step agents over Zenoh).
@@ -60,6 +61,7 @@ class ServiceCore:
     def _build(self, world_name: str) -> None:
         from fleet.registry import RobotRegistry
         from fleet.tasks import TaskManager
+        from fleet.tasks.docks import dock_table
 
         c = self.config
         path = world_file(world_name)
@@ -68,8 +70,9 @@ class ServiceCore:
         desc = self.world.description
         self.safety = SafetyEnvelope(c.safety, desc.bounds())
         self.battery = BatteryBank(c.battery)
-        self.battery.docks = np.array([[sp.pose.x, sp.pose.y] for sp in desc.spawn_points
-                                       if sp.name.startswith("dock")] or np.zeros((0, 2)))
+        # Worlds mark docks as `dock_*` models (visual pads); the battery bank charges at all of them.
+        self.docks = dock_table(desc)
+        self.battery.docks = np.array([[p.x, p.y] for p in self.docks.values()], dtype=float).reshape(-1, 2)
         self.registry = RobotRegistry()
         self.control = ControlLoop(cast("FleetService", self))
         self.tasks = TaskManager(cast("FleetService", self))
@@ -99,7 +102,7 @@ class ServiceCore:
     def threaded(self) -> bool:
         return self._thread is not None
 
-    def start(self, mode: ClockMode | str = ClockMode.REALTIME, speed: float = 1.0) -> ServiceCore:
+    def start(self, mode: ClockMode | str = ClockMode.REALTIME, speed: float = 1.0) -> Self:
         """Service mode: run the world in its own thread, paced by the clock."""
         if self._thread is not None:
             return self
@@ -120,7 +123,7 @@ class ServiceCore:
         self.stop()
         self.world.close()
 
-    def __enter__(self) -> ServiceCore:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:

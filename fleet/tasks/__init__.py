@@ -1,7 +1,10 @@
 """Task types (registered by `type:`) and the task manager. Importing this package registers the built-ins."""
 
-from fleet.tasks import basic  # noqa: F401  (registers wait, stop, go_to)
-from fleet.tasks.base import Task, TaskContext, register_task, task_class, task_types
+from fleet.tasks import basic, charge, cover, follow, waypoints  # noqa: F401  (register the built-in types)
+from fleet.tasks.base import Task, TaskContext, allocatable_types, register_task, task_class, task_types
+from fleet.tasks.docks import dock_table, nearest_dock
 from fleet.tasks.manager import TaskManager
+from fleet.tasks.types import WorkProfile
 
-__all__ = ["Task", "TaskContext", "TaskManager", "register_task", "task_class", "task_types"]
+__all__ = ["Task", "TaskContext", "TaskManager", "WorkProfile", "allocatable_types", "dock_table", "nearest_dock",
+           "register_task", "task_class", "task_types"]

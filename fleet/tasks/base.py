@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
+from fleet.tasks.types import WorkProfile
 from fleet.types import TaskState
 from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.types import Pose2D
@@ -42,6 +43,7 @@ class Task:
     `step` returns the (v, ω) to apply, and ends the task with `self.succeed()`, `self.fail(reason)`."""
 
     type_name: ClassVar[str] = ""
+    allocatable: ClassVar[bool] = False  # True where work_profile is implemented
     id: str
     robot: str
     params: dict[str, Any]
@@ -52,6 +54,7 @@ class Task:
     started: float = math.nan
     finished: float = math.nan
     progress: dict[str, Any] = field(default_factory=dict)
+    not_before: float = -math.inf  # sim time before which the manager does not start it (a time window)
 
     def validate(self, service: FleetService) -> None:
         """Check params when submitted, so bad input fails at once (override per type)."""
@@ -64,6 +67,12 @@ class Task:
 
     def cancel(self, reason: str) -> None:
         """Stop whatever the task drives; the manager marks it canceled."""
+
+    @classmethod
+    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+        """Where the task starts and ends and how much work it is, for the allocator (override per type)."""
+        raise FleetError(ErrorCode.UNSUPPORTED, f"task type '{cls.type_name}' cannot be allocated",
+                         f"allocatable types: {', '.join(allocatable_types())}; submit it to a robot instead")
 
     def succeed(self, now: float) -> Command:
         self.state, self.finished = TaskState.SUCCEEDED, now
@@ -78,7 +87,8 @@ class Task:
                 "reason": self.reason, "priority": self.priority, "params": _jsonable(self.params),
                 "created": self.created, "started": None if math.isnan(self.started) else self.started,
                 "finished": None if math.isnan(self.finished) else self.finished,
-                "progress": _jsonable(self.progress)}
+                "progress": _jsonable(self.progress),
+                **({"not_before": self.not_before} if math.isfinite(self.not_before) else {})}
 
 
 def _jsonable(v: Any) -> Any:
@@ -120,6 +130,11 @@ def task_class(name: str) -> type[Task]:
 
 def task_types() -> list[str]:
     return sorted(_REGISTRY)
+
+
+def allocatable_types() -> list[str]:
+    """Task types with a work profile, i.e. that the allocator can give to any robot."""
+    return sorted(n for n, c in _REGISTRY.items() if c.allocatable)
 
 
 def pose_param(params: dict[str, Any], key: str = "goal") -> Pose2D:

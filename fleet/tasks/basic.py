@@ -1,12 +1,14 @@
-"""Task types that need no planner: wait, stop. And go_to, the navigator-driven task others build on."""
+"""Task types that need no planner: wait, stop. And go_to, the navigator-driven task others build on, and
+return_home (go_to the robot's home)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fleet.tasks.base import Command, Task, TaskContext, pose_param, register_task
+from fleet.tasks.types import WorkProfile
 from planning.nav_types import NavState
 from sim.errors import ErrorCode, FleetError
 
@@ -78,9 +80,15 @@ class GoToTask(NavTask):
     """Navigate to `goal` {x, y, yaw}; with `align_yaw: true` also turn to its heading."""
 
     type_name = "go_to"
+    allocatable = True
 
     def validate(self, service: FleetService) -> None:
         pose_param(self.params)
+
+    @classmethod
+    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+        g = pose_param(params)
+        return WorkProfile(start=(g.x, g.y), end=(g.x, g.y))
 
     def begin(self, ctx: TaskContext) -> None:
         self.navigator(ctx).set_goal(pose_param(self.params), ctx.now,
@@ -93,3 +101,17 @@ class GoToTask(NavTask):
         if state is NavState.FAILED:
             return self.fail(ctx.now, self.reason or "navigation failed")
         return cmd
+
+
+@register_task
+@dataclass(eq=False)
+class ReturnHomeTask(GoToTask):
+    """Navigate to the robot's home (where it was spawned), turning to the home heading unless
+    `align_yaw: false`."""
+
+    type_name = "return_home"
+    allocatable = False  # robot-specific: its goal depends on who does it
+
+    def validate(self, service: FleetService) -> None:
+        self.params["goal"] = service.registry.get(self.robot).home
+        self.params.setdefault("align_yaw", True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 from fleet.tasks.base import Command, Task, TaskContext, new_task_id, task_class
@@ -25,12 +26,16 @@ class TaskManager:
 
     # ---- submitting and querying ------------------------------------------------------------------------
 
-    def submit(self, type_name: str, robot: str, params: dict[str, Any] | None = None, *, priority: int = 0) -> Task:
-        """Queue a task for a robot (validated now, so bad input fails at once)."""
+    def submit(self, type_name: str, robot: str, params: dict[str, Any] | None = None, *, priority: int = 0,
+               not_before: float | None = None) -> Task:
+        """Queue a task for a robot (validated now, so bad input fails at once). With `not_before` the robot
+        does not start it before that sim time (it waits where it is)."""
         self.service.registry.get(robot)
         cls = task_class(type_name)
+        if not_before is not None and math.isnan(not_before):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, "not_before must be a sim time, got NaN")
         task = cls(id=new_task_id(), robot=robot, params=dict(params or {}), priority=priority,
-                   created=self.service.world.time)
+                   created=self.service.world.time, not_before=-math.inf if not_before is None else not_before)
         task.validate(self.service)
         self.tasks[task.id] = task
         q = self.queues.setdefault(robot, [])
@@ -100,6 +105,8 @@ class TaskManager:
         q = self.queues.get(robot, [])
         if not q:
             self.queues.pop(robot, None)
+            return None
+        if q[0].not_before > ctx.now:  # its time window has not opened: the robot waits
             return None
         task = q.pop(0)
         task.state, task.started = TaskState.ACTIVE, ctx.now

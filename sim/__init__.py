@@ -4,6 +4,8 @@ from sim.clock import Clock, ClockMode
 from sim.config import StrictModel, load_yaml
 from sim.errors import ErrorCode, FleetError
 from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
+from sim.sdf_parser import parse_sdf, parse_sdf_string
+from sim.sdf_writer import save_sdf, write_sdf
 from sim.types import (
     CameraImage,
     ContactReading,
@@ -16,11 +18,9 @@ from sim.types import (
     Pose3D,
     WorldDescription,
 )
-from sim.sdf_parser import parse_sdf, parse_sdf_string
-from sim.sdf_writer import save_sdf, write_sdf
 from sim.world import World
-from sim.worldgen import cluttered_arena, warehouse
 from sim.world_types import CommandResult, ModelState
+from sim.worldgen import cluttered_arena, warehouse
 
 __all__ = [
     "CameraImage",

@@ -1,9 +1,10 @@
 """Collision detection *and resolution* for kinematic robots.
 
-Invariant: the poses at the start of a step are collision-free. After integrating, robots are teleported
-to their new poses and PyBullet's collision detection is queried; any robot in penetration goes back to
-its previous pose (and stops). Since all-previous is collision-free, reverting enough robots always ends
-with a collision-free world: robots never pass through each other or obstacles.
+Invariant: the poses at the start of a step are collision-free. After integrating, moved robots are
+teleported to their new poses and every candidate pair is measured afresh (sim/contact_query.py); any
+robot in penetration goes back to its previous pose (and stops). Since all-previous is collision-free,
+reverting enough robots always ends with a collision-free world: robots never pass through each other or
+obstacles.
 """
 
 from __future__ import annotations
@@ -14,33 +15,31 @@ import numpy as np
 import pybullet as p
 from scipy.spatial import cKDTree
 
-from sim.transforms import rpy_to_quat
+from sim.contact_query import PENETRATION, robot_penetrations
 
 RawContact = tuple[int, tuple[float, float, float], float]  # (other uid, position, penetration depth)
 
 if TYPE_CHECKING:
     from sim.world import World
 
-PENETRATION = -1e-3  # m: contact distances below this are overlaps, not grazing contacts
+__all__ = ["PENETRATION", "RawContact", "overlaps", "penetrating_contacts", "resolve_kinematic_collisions",
+           "teleport"]
 
 
 def teleport(world: World, rows: np.ndarray) -> None:
+    if rows.size == 0:
+        return
     f, c = world.table.f, world.client
-    for i in rows:
-        half = 0.5 * float(f["yaw"][i])
-        p.resetBasePositionAndOrientation(int(world.table.body[i]), (float(f["x"][i]), float(f["y"][i]), 0.0),
-                                          (0.0, 0.0, np.sin(half), np.cos(half)), physicsClientId=c)
+    half = 0.5 * f["yaw"][rows]
+    args = zip(world.table.body[rows].tolist(), f["x"][rows].tolist(), f["y"][rows].tolist(),
+               np.sin(half).tolist(), np.cos(half).tolist(), strict=True)
+    for uid, x, y, qz, qw in args:
+        p.resetBasePositionAndOrientation(uid, (x, y, 0.0), (0.0, 0.0, qz, qw), physicsClientId=c)
 
 
 def penetrating_contacts(world: World) -> list[tuple[int, int, tuple[float, float, float], float]]:
-    """(uid_a, uid_b, position on a, distance) of every penetrating pair, ground contacts excluded."""
-    p.performCollisionDetection(physicsClientId=world.client)
-    out = []
-    ground = world._ground_uids
-    for c in p.getContactPoints(physicsClientId=world.client):
-        if c[8] < PENETRATION and c[1] not in ground and c[2] not in ground:
-            out.append((c[1], c[2], c[5], c[8]))
-    return out
+    """(uid_a, uid_b, position on a, distance) of every penetrating pair involving a robot, measured now."""
+    return robot_penetrations(world)
 
 
 def resolve_kinematic_collisions(world: World, moved: np.ndarray,
@@ -59,36 +58,34 @@ def resolve_kinematic_collisions(world: World, moved: np.ndarray,
     if moved.size == 0:
         return moved
     teleport(world, moved)
-    uid_to_row = {int(t.body[i]): int(i) for i in kin_rows}
-    moved_set = {int(r) for r in moved}
+    row_of = {uid: i for i, uid in enumerate(t.body.tolist())}
+    is_moved = np.zeros(len(t), dtype=bool)
+    is_moved[moved] = True
     contacts: dict[int, list[RawContact]] = {}
-    revert: set[int] = set()
-    for a, b, pos, dist in penetrating_contacts(world):
+    reverted = np.zeros(len(t), dtype=bool)
+    for a, b, pos, dist in robot_penetrations(world, moved):
         for uid, other in ((a, b), (b, a)):
-            row = uid_to_row.get(uid)
-            if row is None:
+            row = row_of.get(uid)
+            if row is None or not t.b["kinematic"][row]:
                 continue
             contacts.setdefault(row, []).append((other, pos, -dist))
-            if row in moved_set:
-                revert.add(row)
-    prev_xy = np.full((len(t), 2), np.nan)
-    prev_xy[moved] = np.column_stack([previous[0], previous[1]])
-    prev_yaw = dict(zip(moved.tolist(), previous[2].tolist(), strict=True))
-    reach = 2.0 * f["radius"][kin_rows].max() if kin_rows.size else 0.0
-    frontier = set(revert)
-    while frontier:
-        rows = np.array(sorted(frontier))
-        f["x"][rows], f["y"][rows] = prev_xy[rows, 0], prev_xy[rows, 1]
-        f["yaw"][rows] = [prev_yaw[int(r)] for r in rows]
+            reverted[row] |= is_moved[row]
+    px, py, pyaw = (np.zeros(len(t)) for _ in range(3))
+    px[moved], py[moved], pyaw[moved] = previous
+    reach = 2.0 * float(f["radius"][kin_rows].max()) if kin_rows.size else 0.0
+    frontier = np.flatnonzero(reverted)
+    while frontier.size:
+        f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = px[frontier], py[frontier], pyaw[frontier]
         # Moved, not-yet-reverted robots now within two footprint radii of a reverted robot's old spot.
-        cand = np.array(sorted(moved_set - revert), dtype=np.int64)
-        frontier = set()
-        if cand.size:
-            tree = cKDTree(np.column_stack([f["x"][cand], f["y"][cand]]))
-            near = tree.query_ball_point(np.column_stack([f["x"][rows], f["y"][rows]]), reach)
-            frontier = {int(cand[k]) for ks in near for k in ks}
-            revert |= frontier
-    rows = np.array(sorted(revert), dtype=np.int64)
+        cand = np.flatnonzero(is_moved & ~reverted)
+        if not cand.size:
+            break
+        near = cKDTree(np.column_stack([f["x"][cand], f["y"][cand]])).query_ball_point(
+            np.column_stack([f["x"][frontier], f["y"][frontier]]), reach)
+        hit = np.unique(np.fromiter((k for ks in near for k in ks), dtype=np.int64))
+        frontier = cand[hit] if hit.size else hit
+        reverted[frontier] = True
+    rows = np.flatnonzero(reverted)
     teleport(world, rows)
     for row, cs in contacts.items():
         t.b["in_collision"][row] = True
@@ -97,13 +94,10 @@ def resolve_kinematic_collisions(world: World, moved: np.ndarray,
 
 
 def overlaps(world: World, uid: int) -> list[str]:
-    """Names of everything body `uid` penetrates now (used to refuse spawning or teleporting into things)."""
-    p.performCollisionDetection(physicsClientId=world.client)
+    """Names of everything body `uid` (a robot) penetrates now (used to refuse spawning or teleporting into things)."""
+    rows = np.flatnonzero(world.table.body == uid)
     names = []
-    for c in p.getContactPoints(bodyA=uid, physicsClientId=world.client):
-        if c[8] < PENETRATION and c[2] not in world._ground_uids:
-            names.append(world.body_label(c[2])[0] or f"body {c[2]}")
+    for a, b, _, _ in robot_penetrations(world, rows):
+        other = b if a == uid else a
+        names.append(world.body_label(other)[0] or f"body {other}")
     return sorted(set(names))
-
-
-__all__ = ["overlaps", "resolve_kinematic_collisions", "rpy_to_quat", "teleport"]

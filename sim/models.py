@@ -41,6 +41,8 @@ class ModelRegistry:
         self.client = client
         self.records: dict[str, ModelRecord] = {}
         self.world_meta: WorldDescription = WorldDescription(name="world")
+        self.version = 0  # bumped whenever bodies are added, removed or moved
+        self._aabb_cache: tuple[int, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     # ---- building ----------------------------------------------------------------------------------
 
@@ -90,6 +92,7 @@ class ModelRegistry:
         self.records[model.name] = ModelRecord(model.name, list(built.body_uids), built.link_names, model,
                                                "ground" if is_ground else "sdf", model.static,
                                                body0_init=self._body_matrix(built.body_uids[0]))
+        self.version += 1
 
     def add_urdf(self, name: str, path: str, pose: Pose3D, static: bool) -> None:
         self._check_new(name)
@@ -103,6 +106,7 @@ class ModelRegistry:
         for j in range(p.getNumJoints(uid, physicsClientId=self.client)):
             links[j] = p.getJointInfo(uid, j, physicsClientId=self.client)[12].decode()
         self.records[name] = ModelRecord(name, [uid], {uid: links}, None, "urdf", static, path)
+        self.version += 1
 
     def remove(self, name: str) -> None:
         rec = self._get(name)
@@ -111,6 +115,7 @@ class ModelRegistry:
         for uid in rec.uids:
             p.removeBody(uid, physicsClientId=self.client)
         del self.records[name]
+        self.version += 1
 
     # ---- queries -------------------------------------------------------------------------------------
 
@@ -132,6 +137,31 @@ class ModelRegistry:
 
     def ground_uids(self) -> set[int]:
         return {uid for r in self.records.values() if r.kind == "ground" for uid in r.uids}
+
+    def obstacle_aabbs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(uids, mins (n, 3), maxs (n, 3)) of every non-ground body; static ones cached per version,
+        moving ones measured now."""
+        if self._aabb_cache is None or self._aabb_cache[0] != self.version:
+            uids = [u for r in self.records.values() if r.kind != "ground" and r.static for u in r.uids]
+            boxes = [self._body_aabb(u) for u in uids]
+            self._aabb_cache = (self.version, np.array(uids, dtype=np.int64),
+                                np.array([b[0] for b in boxes]).reshape(-1, 3),
+                                np.array([b[1] for b in boxes]).reshape(-1, 3))
+        _, uids_s, lo_s, hi_s = self._aabb_cache
+        moving = [u for r in self.records.values() if r.kind != "ground" and not r.static for u in r.uids]
+        if not moving:
+            return uids_s, lo_s, hi_s
+        boxes = [self._body_aabb(u) for u in moving]
+        return (np.concatenate([uids_s, np.array(moving, dtype=np.int64)]),
+                np.vstack([lo_s, np.array([b[0] for b in boxes])]), np.vstack([hi_s, np.array([b[1] for b in boxes])]))
+
+    def _body_aabb(self, uid: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """AABB of a body including all its links (URDF models have several)."""
+        n = p.getNumJoints(uid, physicsClientId=self.client)
+        boxes = [p.getAABB(uid, k, physicsClientId=self.client) for k in range(-1, n)]
+        lo = tuple(min(b[0][i] for b in boxes) for i in range(3))
+        hi = tuple(max(b[1][i] for b in boxes) for i in range(3))
+        return lo, hi
 
     def has_dynamic_models(self) -> bool:
         return any(not r.static for r in self.records.values())
@@ -175,6 +205,7 @@ class ModelRegistry:
     def set_state(self, name: str, pose: Pose3D | None, linear: tuple[float, float, float] | None,
                   angular: tuple[float, float, float] | None) -> None:
         rec = self._get(name)
+        self.version += 1
         if pose is not None:
             if rec.description is not None:
                 delta = pose.matrix() @ np.linalg.inv(self.model_pose(rec).matrix())

@@ -80,14 +80,15 @@ def place_robot(world: World, row: int, pose: Pose2D, *, check_collision: bool) 
     z = 0.0 if world.fidelities[name] == "kinematic" else world.specs[name].wheels.radius - _axle_z(world, name)
     p.resetBasePositionAndOrientation(body.uid, (pose.x, pose.y, z), rpy_to_quat(0, 0, pose.yaw), physicsClientId=c)
     p.resetBaseVelocity(body.uid, (0, 0, 0), (0, 0, 0), physicsClientId=c)
+    t.f["x"][row], t.f["y"][row], t.f["yaw"][row] = pose.x, pose.y, pose.yaw  # the broadphase reads the table
     if check_collision:
         hit = overlaps(world, body.uid)
         if hit:
+            t.f["x"][row], t.f["y"][row], t.f["yaw"][row] = old
             p.resetBasePositionAndOrientation(body.uid, (old[0], old[1], z), rpy_to_quat(0, 0, old[2]),
                                               physicsClientId=c)
             raise FleetError(ErrorCode.COLLISION, f"pose ({pose.x:.3f}, {pose.y:.3f}) of '{name}' overlaps {hit}",
                              "choose a free pose (see the occupancy map)")
-    t.f["x"][row], t.f["y"][row], t.f["yaw"][row] = pose.x, pose.y, pose.yaw
     for col in ("v", "w", "cmd_v", "cmd_w", "sp_v", "sp_w", "prev_v", "prev_w"):
         t.f[col][row] = 0.0
 
@@ -116,12 +117,17 @@ def read_dynamic_state(world: World, i: int) -> None:
         t.f["v"][i] = np.nan  # the health check names this robot
 
 
-def dynamic_contacts(world: World, name: str) -> tuple[RawContact, ...]:
-    """Contacts of a dynamic robot with anything but the ground (wheels on the floor are not bumps)."""
-    uid = world.bodies[name].uid
-    out = []
-    for ct in p.getContactPoints(bodyA=uid, physicsClientId=world.client):
-        if ct[2] in world._ground_uids or ct[2] == uid:
+def dynamic_contacts(world: World, uids: set[int]) -> dict[int, list[RawContact]]:
+    """Contacts of dynamic robots with anything but the ground (wheels on the floor are not bumps), from one
+    global contact query grouped by body (a per-robot query costs time proportional to the fleet)."""
+    out: dict[int, list[RawContact]] = {}
+    ground = world._ground_uids
+    for ct in p.getContactPoints(physicsClientId=world.client):
+        a, b = ct[1], ct[2]
+        if a in ground or b in ground or a == b:
             continue
-        out.append((int(ct[2]), (ct[5][0], ct[5][1], ct[5][2]), float(ct[9])))
-    return tuple(out)
+        if a in uids:
+            out.setdefault(a, []).append((int(b), (ct[5][0], ct[5][1], ct[5][2]), float(ct[9])))
+        if b in uids:
+            out.setdefault(b, []).append((int(a), (ct[6][0], ct[6][1], ct[6][2]), float(ct[9])))
+    return out

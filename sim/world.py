@@ -169,13 +169,13 @@ class World:
         if not (math.isfinite(v) and math.isfinite(w)):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"velocity must be finite, got v={v}, w={w}")
         f = self.table.f
-        av = float(np.clip(v, -f["max_v"][i], f["max_v"][i]))
-        aw = float(np.clip(w, -f["max_w"][i], f["max_w"][i]))
+        max_v, max_w = float(f["max_v"][i]), float(f["max_w"][i])
+        av, aw = max(-max_v, min(max_v, v)), max(-max_w, min(max_w, w))
         reasons = []
         if av != v:
-            reasons.append(f"linear {v:.3g} clamped to ±{f['max_v'][i]:.3g} m/s")
+            reasons.append(f"linear {v:.3g} clamped to ±{max_v:.3g} m/s")
         if aw != w:
-            reasons.append(f"angular {w:.3g} clamped to ±{f['max_w'][i]:.3g} rad/s")
+            reasons.append(f"angular {w:.3g} clamped to ±{max_w:.3g} rad/s")
         f["cmd_v"][i], f["cmd_w"][i] = av, aw
         return CommandResult(name, v, w, av, aw, bool(reasons), "; ".join(reasons), self._time)
 
@@ -202,14 +202,18 @@ class World:
         return np.flatnonzero(~self.table.b["kinematic"])
 
     def _drive_dynamic_robots(self) -> None:
+        rows = self._dynamic_rows()
+        if rows.size == 0:
+            return
         f = self.table.f
-        for i in self._dynamic_rows():
-            body = self.bodies[self.table.names[i]]
-            spec = self.specs[self.table.names[i]]
-            wl, wr = wheel_speeds(f["sp_v"][i], f["sp_w"][i], f["wheel_radius"][i], f["wheel_sep"][i])
+        wl, wr = wheel_speeds(f["sp_v"][rows], f["sp_w"][rows], f["wheel_radius"][rows], f["wheel_sep"][rows])
+        for i, left, right in zip(rows.tolist(), wl.tolist(), wr.tolist(), strict=True):
+            name = self.table.names[i]
+            body = self.bodies[name]
+            torque = self.specs[name].wheels.max_torque
             p.setJointMotorControlArray(body.uid, [body.left_wheel, body.right_wheel], p.VELOCITY_CONTROL,
-                                        targetVelocities=[float(wl), float(wr)],
-                                        forces=[spec.wheels.max_torque] * 2, physicsClientId=self.client)
+                                        targetVelocities=[left, right], forces=[torque, torque],
+                                        physicsClientId=self.client)
 
     def _step_physics(self) -> None:
         if self.table.b["kinematic"].all() and not self.models.has_dynamic_models():
@@ -272,9 +276,13 @@ class World:
     def _collect_dynamic_contacts(self) -> None:
         from sim.robot_spawn import dynamic_contacts
 
-        for i in self._dynamic_rows():
+        rows = self._dynamic_rows()
+        if rows.size == 0:
+            return
+        found = dynamic_contacts(self, set(self.table.body[rows].tolist()))
+        for i in rows:
             name = self.table.names[i]
-            self._contacts[name] = dynamic_contacts(self, name)
+            self._contacts[name] = tuple(found.get(int(self.table.body[i]), ()))
             self.table.b["in_collision"][i] = bool(self._contacts[name])
         if self._wants("contact"):
             for name in self.table.names:
@@ -300,8 +308,7 @@ class World:
         uids = np.full(n, -1, dtype=np.int64)
         for a in range(0, n, MAX_RAYS_PER_CALL):
             b = min(n, a + MAX_RAYS_PER_CALL)
-            res = p.rayTestBatch(origins[a:b].tolist(), ends[a:b].tolist(), numThreads=0,
-                                 physicsClientId=self.client)
+            res = p.rayTestBatch(origins[a:b], ends[a:b], numThreads=0, physicsClientId=self.client)
             uids[a:b] = [r[0] for r in res]
             fractions[a:b] = [r[2] for r in res]
         return fractions, uids

@@ -66,6 +66,23 @@ def test_head_on_robots_never_pass_through_each_other():
         assert w.robot_pose("a").x < w.robot_pose("b").x
 
 
+def brute_force_penetrations(w: World) -> list[tuple[int, int, float]]:
+    """Independent check: every robot against every other body, measured with getClosestPoints."""
+    import pybullet as pb
+
+    robots = [int(u) for u in w.table.body]
+    others = [u for u in range(pb.getNumBodies(physicsClientId=w.client))]
+    bad = []
+    for a in robots:
+        for b in others:
+            if b == a or b in w.models.ground_uids():
+                continue
+            d = min((c[8] for c in pb.getClosestPoints(a, b, 0.0, physicsClientId=w.client)), default=1.0)
+            if d < -1e-3:
+                bad.append((a, b, d))
+    return bad
+
+
 def test_dense_crowd_stays_collision_free():
     """Many robots with random commands in a small pen: after every step no two footprints overlap."""
     with World(physics_hz=10, seed=4) as w:
@@ -78,9 +95,7 @@ def test_dense_crowd_stays_collision_free():
             for n in w.robot_names():
                 w.set_cmd_vel(n, float(w.rng.uniform(-1, 1)), float(w.rng.uniform(-2, 2)))
             w.step()
-            from sim.kinematic_collisions import penetrating_contacts
-
-            assert penetrating_contacts(w) == []
+            assert brute_force_penetrations(w) == []
             xs = np.array([w.robot_pose(n).x for n in w.robot_names()])
             assert np.all(np.abs(xs) < 4.4)
 

@@ -14,7 +14,7 @@ from sim.kinematic_collisions import RawContact, overlaps
 from sim.robot_body import dynamic_robot, kinematic_proxy
 from sim.robot_spec import RobotSpec
 from sim.sensors.lidar import LidarConfig
-from sim.transforms import quat_to_rpy, rpy_to_quat
+from sim.transforms import rpy_to_quat
 from sim.types import Fidelity, Pose2D
 
 if TYPE_CHECKING:
@@ -100,21 +100,26 @@ def _axle_z(world: World, name: str) -> float:
     return float(info[14][2])  # parentFramePos z of the wheel joint, in the base (COM-free) frame
 
 
-def read_dynamic_state(world: World, i: int) -> None:
-    """Copy a dynamic robot's pose, body twist and wheel angles from PyBullet into the table."""
+def read_dynamic_states(world: World, rows: np.ndarray) -> None:
+    """Copy dynamic robots' poses, body twists and wheel angles from PyBullet into the table, gathering into
+    lists and writing each column once."""
     t, c = world.table, world.client
-    uid = int(t.body[i])
-    body = world.bodies[t.names[i]]
-    pos, orn = p.getBasePositionAndOrientation(uid, physicsClientId=c)
-    lin, ang = p.getBaseVelocity(uid, physicsClientId=c)
-    yaw = quat_to_rpy(orn)[2]
-    t.f["x"][i], t.f["y"][i], t.f["yaw"][i] = pos[0], pos[1], yaw
-    t.f["v"][i] = lin[0] * math.cos(yaw) + lin[1] * math.sin(yaw)
-    t.f["w"][i] = ang[2]
-    js = p.getJointStates(uid, [body.left_wheel, body.right_wheel], physicsClientId=c)
-    t.f["wheel_l"][i], t.f["wheel_r"][i] = js[0][0], js[1][0]
-    if not all(np.isfinite(pos)) or not all(np.isfinite(lin)):
-        t.f["v"][i] = np.nan  # the health check names this robot
+    n = rows.size
+    x, y, yaw, v, w, wl, wr = (np.empty(n) for _ in range(7))
+    for k, i in enumerate(rows.tolist()):
+        uid = int(t.body[i])
+        body = world.bodies[t.names[i]]
+        pos, (qx, qy, qz, qw) = p.getBasePositionAndOrientation(uid, physicsClientId=c)
+        lin, ang = p.getBaseVelocity(uid, physicsClientId=c)
+        th = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        js = p.getJointStates(uid, [body.left_wheel, body.right_wheel], physicsClientId=c)
+        x[k], y[k], yaw[k] = pos[0], pos[1], th
+        v[k], w[k] = lin[0] * math.cos(th) + lin[1] * math.sin(th), ang[2]
+        wl[k], wr[k] = js[0][0], js[1][0]
+    v[~(np.isfinite(x) & np.isfinite(y) & np.isfinite(v))] = np.nan  # the health check names these robots
+    f = t.f
+    f["x"][rows], f["y"][rows], f["yaw"][rows], f["v"][rows], f["w"][rows] = x, y, yaw, v, w
+    f["wheel_l"][rows], f["wheel_r"][rows] = wl, wr
 
 
 def dynamic_contacts(world: World, uids: set[int]) -> dict[int, list[RawContact]]:

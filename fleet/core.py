@@ -46,6 +46,7 @@ class ServiceCore:
         self._queue: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = queue.SimpleQueue()
         self._thread: threading.Thread | None = None
         self._running = False
+        self._draining = False
         self._wake = threading.Event()
         self.world: World
         self.docks: dict[str, Pose2D] = {}
@@ -149,16 +150,22 @@ class ServiceCore:
         return await asyncio.wrap_future(self.submit(fn))
 
     def _drain(self) -> None:
-        while True:
-            try:
-                fn, fut = self._queue.get_nowait()
-            except queue.Empty:
-                return
-            if fut.set_running_or_notify_cancel():
+        """Run queued commands on the sim thread (not re-entrant: a command that steps the world does not
+        drain the queue again from inside its own steps)."""
+        self._draining = True
+        try:
+            while True:
                 try:
-                    fut.set_result(fn())
-                except BaseException as exc:  # the caller gets it from the future
-                    fut.set_exception(exc)
+                    fn, fut = self._queue.get_nowait()
+                except queue.Empty:
+                    return
+                if fut.set_running_or_notify_cancel():
+                    try:
+                        fut.set_result(fn())
+                    except BaseException as exc:  # the caller gets it from the future
+                        fut.set_exception(exc)
+        finally:
+            self._draining = False
 
     def _sim_loop(self) -> None:
         while self._running:
@@ -195,6 +202,8 @@ class ServiceCore:
         w = self.world
         for _ in range(n):
             if w.step_count % self._steps_per_control == 0:
+                if self._thread is not None and not self._draining:
+                    self._drain()  # commands apply at the next control tick, even when the sim lags behind
                 if self.control_gate is not None:
                     self.control_gate(w.time)  # lock-step: wait for the agents' commands for this tick
                 self.control.tick()  # behaviours → avoidance → safety envelope → world commands

@@ -1,4 +1,10 @@
-"""sim: the PyBullet world — one client, sim-time clock, robots, sensors, world files, snapshots."""
+"""sim: the PyBullet world — one client, sim-time clock, robots, sensors, world files, snapshots.
+
+`World` is imported lazily (on first use) so light users of the value types — agents, parsers — do not pay for
+PyBullet.
+"""
+
+from typing import TYPE_CHECKING, Any
 
 from sim.clock import Clock, ClockMode
 from sim.config import StrictModel, load_yaml
@@ -18,9 +24,20 @@ from sim.types import (
     Pose3D,
     WorldDescription,
 )
-from sim.world import World
 from sim.world_types import CommandResult, ModelState
 from sim.worldgen import cluttered_arena, warehouse
+
+if TYPE_CHECKING:
+    from sim.world import World
+
+
+def __getattr__(name: str) -> Any:
+    if name == "World":
+        from sim.world import World
+
+        return World
+    raise AttributeError(f"module 'sim' has no attribute {name!r}")
+
 
 __all__ = [
     "CameraImage",

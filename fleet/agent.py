@@ -1,0 +1,322 @@
+"""The agent SDK: write a robot controller in a few lines, in any process, on any machine that reaches the world.
+
+    with Agent("me", connect="tcp/127.0.0.1:7447") as agent:
+        r1 = agent.robot("r1")                      # subscribes to r1's odom, scan and pose
+        scan = r1.wait("scan")                      # every message carries `stamp`, the sim time
+        r1.drive(0.5, 0.0)                          # through the world's safety envelope (deadman: renew it)
+        task = agent.navigate("r1", 5.0, 5.0)       # requests reply with the result or raise FleetError
+        agent.wait_task(task["id"])
+
+Lock-step (the world waits each control tick for this agent): `agent.lockstep(["r1"], step)` calls
+`step(tick, stamp)` once per tick and sends the (v, w) it returns for each robot.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import queue
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from typing import Any
+
+import numpy as np
+import zenoh
+
+from fleet.zenoh_api import (
+    Keys,
+    Odom,
+    PoseStamped,
+    Scan,
+    check_name,
+    decode_error,
+    decode_grid,
+    decode_odom,
+    decode_pose,
+    decode_scan,
+    dumps,
+)
+from fleet.zenoh_config import ZenohConfig
+from sim.errors import ErrorCode, FleetError
+
+Step = Callable[[int, float], dict[str, tuple[float, float]] | None]
+DECODERS: dict[str, Callable[[bytes], Any]] = {"odom": decode_odom, "scan": decode_scan, "pose": decode_pose,
+                                               "state": json.loads, "imu": json.loads}
+
+
+def _direct(fn: Callable[[Any], Any]) -> zenoh.handlers.Callback[Any]:
+    # On Zenoh's receiving thread: messages stay in the order the world sent them (lock-step relies on it).
+    return zenoh.handlers.Callback(fn, indirect=False)
+
+
+class RobotLink:
+    """One robot as this agent sees it: the latest message of each stream, and commands."""
+
+    def __init__(self, agent: Agent, name: str, streams: Iterable[str]) -> None:
+        self.agent, self.name = agent, name
+        self.latest: dict[str, Any] = {}
+        self._cond = threading.Condition()
+        self._seq = 0
+        keys = agent.keys
+        self._cmd = agent.session.declare_publisher(
+            keys.robot(name, "cmd_vel"), encoding=zenoh.Encoding.APPLICATION_JSON,
+            congestion_control=zenoh.CongestionControl.BLOCK, priority=zenoh.Priority.INTERACTIVE_HIGH, express=True)
+        self._subs = [agent.session.declare_subscriber(keys.robot(name, s), _direct(self._receiver(s)))
+                      for s in streams]
+
+    def _receiver(self, stream: str) -> Callable[[zenoh.Sample], None]:
+        decode = DECODERS[stream]
+
+        def receive(sample: zenoh.Sample) -> None:
+            msg = decode(sample.payload.to_bytes())
+            self.agent._saw(msg["stamp"] if isinstance(msg, dict) else msg.stamp)
+            with self._cond:
+                self.latest[stream] = msg
+                self._cond.notify_all()
+
+        return receive
+
+    @property
+    def odom(self) -> Odom | None:
+        return self.latest.get("odom")
+
+    @property
+    def scan(self) -> Scan | None:
+        return self.latest.get("scan")
+
+    @property
+    def pose(self) -> PoseStamped | None:
+        return self.latest.get("pose")
+
+    def wait(self, stream: str = "scan", timeout: float = 10.0, newer_than: float = -math.inf) -> Any:
+        """The latest message of `stream` stamped after `newer_than` (sim s), waiting up to `timeout` wall s."""
+        def ready() -> bool:
+            m = self.latest.get(stream)
+            return m is not None and (m["stamp"] if isinstance(m, dict) else m.stamp) > newer_than
+
+        with self._cond:
+            if not self._cond.wait_for(ready, timeout):
+                raise FleetError(ErrorCode.TIMEOUT, f"no '{stream}' from robot '{self.name}' within {timeout:g} s",
+                                 "is the robot spawned, the stream enabled, the world running?")
+            return self.latest[stream]
+
+    def drive(self, v: float, w: float, *, tick: int | None = None, duration: float | None = None) -> None:
+        """Publish a velocity command (no reply: rejections arrive in `agent.errors`)."""
+        self._seq += 1
+        msg: dict[str, Any] = {"v": v, "w": w, "agent": self.agent.id, "seq": self._seq, "sent": time.time()}
+        if tick is not None:
+            msg["tick"] = tick
+        if duration is not None:
+            msg["duration"] = duration
+        self._cmd.put(dumps(msg))
+
+    def drive_sync(self, v: float, w: float, duration: float | None = None) -> dict[str, Any]:
+        """A velocity command with a reply: what was applied after clamping, or a FleetError (e.g. LEASE_HELD)."""
+        return self.agent.request("drive", robot=self.name, v=v, w=w, duration=duration)
+
+    def stop(self) -> None:
+        self.drive(0.0, 0.0)
+
+    def close(self) -> None:
+        for s in self._subs:
+            s.undeclare()
+        self._cmd.undeclare()
+
+
+class Agent:
+    def __init__(self, agent_id: str, *, connect: str | list[str] | None = None, world: str | None = None,
+                 config: ZenohConfig | None = None, timeout: float = 10.0) -> None:
+        self.id = check_name("agent id", agent_id)
+        if config is None:
+            eps = [connect] if isinstance(connect, str) else list(connect or [])
+            config = ZenohConfig(mode="client" if eps else "peer", connect=eps, multicast_scouting=not eps)
+        self.config, self.timeout, self._world = config, timeout, world
+        self.sim_time = 0.0  # the latest stamp seen on any message
+        self.events: deque[dict[str, Any]] = deque(maxlen=10_000)
+        self.errors: deque[dict[str, Any]] = deque(maxlen=10_000)
+        self._robots: dict[str, RobotLink] = {}
+        self._event_cb: list[Callable[[dict[str, Any]], None]] = []
+        self._cond = threading.Condition()
+        self._ticks: queue.SimpleQueue[dict[str, Any]] | None = None  # the lock-step loop's inbox
+        self._decls: list[Any] = []
+        self.session: zenoh.Session
+
+    def __enter__(self) -> Agent:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def open(self) -> Agent:
+        self.session = zenoh.open(self.config.to_zenoh())
+        try:
+            self.keys = Keys(self._discover())
+        except FleetError:
+            self.session.close()
+            raise
+        k = self.keys
+        self._decls = [
+            self.session.declare_subscriber(k.fleet("events"), _direct(self._on_event)),
+            self.session.declare_subscriber(k.agent_errors(self.id), _direct(self._on_error)),
+            self.session.liveliness().declare_token(k.alive_agent(self.id)),
+        ]
+        return self
+
+    def close(self) -> None:
+        for r in self._robots.values():
+            r.close()
+        for d in reversed(self._decls):
+            d.undeclare()
+        self.session.close()
+
+    def _discover(self) -> str:
+        """The world's name from its liveliness token, retried until the link is up (or `timeout`)."""
+        deadline = time.monotonic() + self.timeout
+        pattern = Keys(self._world).alive_world() if self._world else Keys.worlds_pattern()
+        while True:
+            worlds = sorted({Keys.world_of(str(r.ok.key_expr)) for r in
+                             self.session.liveliness().get(pattern, timeout=0.5) if r.ok is not None})
+            if len(worlds) == 1:
+                return worlds[0]
+            if len(worlds) > 1:
+                raise FleetError(ErrorCode.INVALID_ARGUMENT, f"several worlds answer: {', '.join(worlds)}",
+                                 "pass world=<name>")
+            if time.monotonic() > deadline:
+                raise FleetError(ErrorCode.TIMEOUT, f"no fleetnav world found at {pattern} within {self.timeout:g} s",
+                                 "is `fleetnav serve` running and the endpoint right?")
+
+    def _saw(self, stamp: float) -> None:
+        if stamp > self.sim_time:
+            self.sim_time = stamp
+
+    def _on_event(self, sample: zenoh.Sample) -> None:
+        ev = json.loads(sample.payload.to_bytes())
+        self._saw(ev["stamp"])
+        with self._cond:
+            self.events.append(ev)
+            self._cond.notify_all()
+        for cb in self._event_cb:
+            cb(ev)
+
+    def _on_error(self, sample: zenoh.Sample) -> None:
+        err = json.loads(sample.payload.to_bytes())
+        if self._ticks is not None and err.get("key") == self.keys.fleet("clock"):
+            self._ticks.put({"hung": err})  # the world gave up on us: end the lock-step loop now
+        with self._cond:
+            self.errors.append(err)
+            self._cond.notify_all()
+
+    def on_event(self, callback: Callable[[dict[str, Any]], None]) -> None:
+        """Call `callback(event)` for each fleet event (on Zenoh's thread: keep it short)."""
+        self._event_cb.append(callback)
+
+    def wait_for(self, predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
+        """Wait until `predicate()` holds; re-checked whenever an event or error arrives."""
+        with self._cond:
+            return self._cond.wait_for(predicate, timeout)
+
+    # ---- robots and requests ------------------------------------------------------------------------------
+
+    def robot(self, name: str, streams: Iterable[str] = ("odom", "scan", "pose")) -> RobotLink:
+        if name not in self._robots:
+            self._robots[name] = RobotLink(self, check_name("robot", name), streams)
+        return self._robots[name]
+
+    def query(self, key: str, payload: dict[str, Any] | None = None, timeout: float | None = None) -> Any:
+        """One reply from the world: its JSON on success, a FleetError raised on an error reply."""
+        body = dumps(payload) if payload is not None else None
+        for reply in self.session.get(key, payload=body, timeout=timeout or self.timeout):
+            if reply.ok is not None:
+                msg = json.loads(reply.ok.payload.to_bytes())
+                self._saw(msg.get("stamp", 0.0))
+                return msg
+            assert reply.err is not None
+            raise decode_error(reply.err.payload.to_bytes())
+        raise FleetError(ErrorCode.TIMEOUT, f"no reply on {key}", "is the world still running?")
+
+    def request(self, op: str, **fields: Any) -> Any:
+        """A command with a reply (navigate, cancel, task_status, spawn, remove, reset, drive, lease, estop, ...)."""
+        body = {k: v for k, v in fields.items() if v is not None} | {"agent": self.id}
+        return self.query(self.keys.command(op), body)["result"]
+
+    def navigate(self, robot: str, x: float, y: float, yaw: float = 0.0, align_yaw: bool = False) -> dict[str, Any]:
+        return self.request("navigate", robot=robot, goal={"x": x, "y": y, "yaw": yaw}, align_yaw=align_yaw)
+
+    def task_status(self, task_id: str) -> dict[str, Any]:
+        return self.request("task_status", task_id=task_id)
+
+    def cancel(self, task_id: str) -> dict[str, Any]:
+        return self.request("cancel", task_id=task_id)
+
+    def wait_task(self, task_id: str, timeout: float = 60.0) -> dict[str, Any]:
+        """Until the task ends (succeeded, failed or canceled); re-checks whenever a fleet event arrives."""
+        deadline = time.monotonic() + timeout
+        while True:
+            status = self.task_status(task_id)
+            if status["state"] in ("succeeded", "failed", "canceled"):
+                return status
+            seen = len(self.events)
+            if time.monotonic() > deadline:
+                raise FleetError(ErrorCode.TIMEOUT, f"task {task_id} still {status['state']} after {timeout:g} s")
+            self.wait_for(lambda n=seen: len(self.events) != n, timeout=0.5)  # type: ignore[misc]
+
+    def spawn(self, name: str, x: float, y: float, yaw: float = 0.0, **kw: Any) -> dict[str, Any]:
+        return self.request("spawn", name=name, pose={"x": x, "y": y, "yaw": yaw}, **kw)
+
+    def reset(self) -> dict[str, Any]:
+        return self.request("reset")
+
+    def fleet_state(self) -> dict[str, Any]:
+        return self.query(self.keys.fleet("state"))
+
+    def tasks(self, robot: str | None = None, include_done: bool = False) -> list[dict[str, Any]]:
+        body = {"include_done": include_done} | ({"robot": robot} if robot else {})
+        return self.query(self.keys.fleet("tasks"), body)["result"]
+
+    def occupancy_map(self) -> tuple[np.ndarray, float, tuple[float, float]]:
+        """(int8 grid with row 0 at the bottom, resolution m, origin of cell (0, 0) in the map frame)."""
+        d = self.query(self.keys.fleet("map"))
+        return decode_grid(d), d["resolution"], (d["origin"]["x"], d["origin"]["y"])
+
+    # ---- lock-step ----------------------------------------------------------------------------------------
+
+    def lockstep(self, robots: list[str], step: Step, *, max_ticks: int | None = None,
+                 tick_timeout: float = 30.0) -> int:
+        """Answer every control tick: `step(tick, stamp)` returns {robot: (v, w)} (missing robots get (0, 0)),
+        or None to leave lock-step (the robots' last commands hold until the deadman unless stopped). Returns the
+        number of ticks answered."""
+        ticks: queue.SimpleQueue[dict[str, Any]] = queue.SimpleQueue()
+        self._ticks = ticks
+        links = [self.robot(r) for r in robots]
+        clock = self.session.declare_subscriber(self.keys.fleet("clock"),
+                                                _direct(lambda s: ticks.put(json.loads(s.payload.to_bytes()))))
+        n = 0
+        try:
+            self.request("lockstep", robots=robots)
+        except FleetError:
+            clock.undeclare()
+            raise
+        try:
+            while max_ticks is None or n < max_ticks:
+                try:
+                    msg = ticks.get(timeout=tick_timeout)
+                except queue.Empty:
+                    raise FleetError(ErrorCode.TIMEOUT, f"no lock-step tick for {tick_timeout:g} s",
+                                     "is the world paused?") from None
+                if "hung" in msg:
+                    raise decode_error(dumps(msg["hung"]))
+                self._saw(msg["stamp"])
+                cmds = step(msg["tick"], msg["stamp"])
+                if cmds is None:  # done: leave without answering, so the world waits and ends at this very tick
+                    break
+                for link in links:
+                    v, w = cmds.get(link.name, (0.0, 0.0))
+                    link.drive(v, w, tick=msg["tick"])
+                n += 1
+        finally:
+            clock.undeclare()
+            self._ticks = None
+            self.request("lockstep", robots=[])
+        return n

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """One-command setup on a fresh machine (Python ≥ 3.11 and nothing else), then run a job.
 
-    python3 bootstrap.py run     # create .venv if needed, install fleetnav, run the main job
+    python3 bootstrap.py run     # create .venv if needed, install fleetnav, run the main job (a mission)
     python3 bootstrap.py test    # create .venv if needed, install fleetnav[dev], run the test suite
     python3 bootstrap.py lint    # ruff + mypy
 
@@ -46,7 +46,7 @@ def main(argv: list[str]) -> int:
     ensure_env()
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     if job == "run":
-        cmd = [str(BIN / "fleetnav"), "demo", *rest]
+        cmd = [str(BIN / "fleetnav"), "run", *(rest or ["configs/missions/arena_navigation.yaml"])]
     elif job == "test":
         cmd = [str(PY), "-m", "pytest", *rest]
     elif job == "lint":

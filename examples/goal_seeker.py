@@ -2,10 +2,12 @@
 
     python examples/goal_seeker.py --connect tcp/127.0.0.1:7447 --robot r1 --goal 5 5
 
-Each control step it picks, among the lidar beams with enough clearance for the robot's width, the heading
-closest to the goal's bearing (a one-step vector field histogram), turns toward it and slows down as the
-way ahead closes in. It paces itself on sim time (a new pose message), so it runs at any sim speed; with
---lockstep the world waits for it every control tick instead.
+Once, it asks the world for its occupancy map over the Zenoh API and plans a route (Theta* on a costmap
+inflated by the robot's radius) so it can get out of mazes; `--no-plan` seeks the goal directly. Each control
+step it picks, among the lidar beams with enough clearance for the robot's width, the heading closest to the
+bearing of a carrot point a little way along the route (a one-step vector field histogram), turns toward it
+and slows down as the way ahead closes in. It paces itself on sim time (a new pose message), so it runs at
+any sim speed; with --lockstep the world waits for it every control tick instead.
 """
 
 from __future__ import annotations
@@ -64,6 +66,51 @@ def command(pose: PoseStamped, scan: Scan | None, goal: tuple[float, float],
     return v, w, False
 
 
+class Route:
+    """The planned polyline and a carrot point `lookahead` metres past the robot's projection onto it."""
+
+    def __init__(self, path: np.ndarray, lookahead: float = 1.0) -> None:
+        self.path = np.asarray(path, dtype=float)
+        seg = np.diff(self.path, axis=0)
+        self.cum = np.concatenate([[0.0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]))])
+        self.lookahead = lookahead
+        self.progress = 0.0
+
+    def carrot(self, x: float, y: float) -> tuple[float, float]:
+        # project onto the route near where we were (never backwards), then look ahead along it
+        a, b = self.path[:-1], self.path[1:]
+        d = b - a
+        t = np.clip(((x - a[:, 0]) * d[:, 0] + (y - a[:, 1]) * d[:, 1]) / np.maximum((d**2).sum(1), 1e-12), 0, 1)
+        proj = a + t[:, None] * d
+        dist = np.hypot(proj[:, 0] - x, proj[:, 1] - y)
+        s = self.cum[:-1] + t * (self.cum[1:] - self.cum[:-1])
+        ok = s >= self.progress - 0.5
+        k = int(np.argmin(np.where(ok, dist, np.inf)))
+        self.progress = max(self.progress, float(s[k]))
+        target = min(self.progress + self.lookahead, float(self.cum[-1]))
+        j = int(np.clip(np.searchsorted(self.cum, target) - 1, 0, len(self.path) - 2))
+        f = (target - self.cum[j]) / max(self.cum[j + 1] - self.cum[j], 1e-12)
+        px, py = self.path[j] + f * (self.path[j + 1] - self.path[j])
+        return float(px), float(py)
+
+
+def plan_route(agent: Agent, start: tuple[float, float], goal: tuple[float, float],
+               radius: float) -> Route | None:
+    """A route over the world's occupancy map (None if the map is unavailable or no route exists)."""
+    from planning import LayeredCostmap, OccupancyGrid, get_planner
+    from sim.errors import FleetError
+    from sim.types import Pose2D
+
+    try:
+        data, res, origin = agent.occupancy_map()
+        costmap = LayeredCostmap(OccupancyGrid(data, res, origin), robot_radius=radius)
+        plan = get_planner("guided_theta_star").plan(Pose2D(*start, 0.0), Pose2D(*goal, 0.0), costmap)
+    except FleetError as exc:
+        print(f"goal_seeker: no route ({exc.message}); seeking the goal directly", file=sys.stderr)
+        return None
+    return Route(plan.path)
+
+
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
@@ -74,12 +121,12 @@ def _wrap_arr(a: np.ndarray) -> np.ndarray:
 
 def run(connect: str, robot: str, goal: tuple[float, float], *, agent_id: str = "goal_seeker",
         world: str | None = None, lockstep: bool = False, timeout: float = 120.0, delay: float = 0.0,
-        params: SeekerParams = SeekerParams()) -> dict[str, Any]:
+        params: SeekerParams = SeekerParams(), plan: bool = True) -> dict[str, Any]:
     """Drive `robot` to `goal` (map frame); returns where it ended and whether it arrived."""
     with Agent(agent_id, connect=connect, world=world) as agent:
         link = agent.robot(robot, streams=("pose", "scan"))
-        if not lockstep:  # (in lock-step, registering publishes the pose before the first tick)
-            link.wait("pose", timeout=timeout)
+        start = link.wait("pose", timeout=timeout)
+        route = plan_route(agent, (start.x, start.y), goal, params.robot_radius) if plan else None
         reached = False
         ticks: list[int] = []
 
@@ -88,7 +135,11 @@ def run(connect: str, robot: str, goal: tuple[float, float], *, agent_id: str = 
             ticks.append(tick)
             if delay:
                 time.sleep(delay)  # --delay: stands in for a slow controller's computation
-            v, w, reached = command(link.pose or link.wait("pose"), link.scan, goal, params)
+            pose = link.pose or link.wait("pose")
+            near_goal = math.hypot(goal[0] - pose.x, goal[1] - pose.y) < 1.0
+            target = goal if route is None or near_goal else route.carrot(pose.x, pose.y)
+            v, w, _ = command(pose, link.scan, target, params)
+            reached = math.hypot(goal[0] - pose.x, goal[1] - pose.y) < params.tolerance
             return None if reached else {robot: (v, w)}
 
         if lockstep:
@@ -118,9 +169,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--lockstep", action="store_true", help="the world waits for this agent every tick")
     ap.add_argument("--timeout", type=float, default=120.0, help="wall seconds")
     ap.add_argument("--delay", type=float, default=0.0, help="seconds of simulated computation per step")
+    ap.add_argument("--no-plan", action="store_true", help="seek the goal directly (no map, no route)")
     a = ap.parse_args(argv)
     result = run(a.connect, a.robot, (a.goal[0], a.goal[1]), agent_id=a.agent_id, world=a.world,
-                 lockstep=a.lockstep, timeout=a.timeout, delay=a.delay)
+                 lockstep=a.lockstep, timeout=a.timeout, delay=a.delay, plan=not a.no_plan)
     print(json.dumps(result), flush=True)
     return 0 if result["reached"] else 1
 

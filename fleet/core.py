@@ -26,6 +26,7 @@ from fleet.safety import SafetyEnvelope
 from fleet.types import FleetSnapshot
 from sim import Clock, ClockMode, FleetError, Pose2D, RobotSpec, World, load_robot_spec
 from sim.errors import ErrorCode
+from sim.types import Plane, WorldDescription
 
 if TYPE_CHECKING:
     from fleet.service import FleetService
@@ -69,7 +70,7 @@ class ServiceCore:
         self.world = World.from_sdf(path, physics_hz=c.physics_hz, seed=c.seed, fidelity=c.fidelity)
         self.world_path = path
         desc = self.world.description
-        self.safety = SafetyEnvelope(c.safety, desc.bounds())
+        self.safety = SafetyEnvelope(c.safety, _fence_bounds(desc))
         self.battery = BatteryBank(c.battery)
         # Worlds mark docks as `dock_*` models (visual pads); the battery bank charges at all of them.
         self.docks = dock_table(desc)
@@ -201,9 +202,12 @@ class ServiceCore:
         """n physics steps; the control loop runs every `_steps_per_control` steps (sim time)."""
         w = self.world
         for _ in range(n):
-            if w.step_count % self._steps_per_control == 0:
-                if self._thread is not None and not self._draining:
-                    self._drain()  # commands apply at the next control tick, even when the sim lags behind
+            tick = w.step_count % self._steps_per_control == 0
+            # Callers wait at most one physics step, even when the sim lags; in lock-step, commands apply only at
+            # control ticks so a run does not depend on when messages arrive.
+            if self._thread is not None and not self._draining and (tick or self.control_gate is None):
+                self._drain()
+            if tick:
                 if self.control_gate is not None:
                     self.control_gate(w.time)  # lock-step: wait for the agents' commands for this tick
                 self.control.tick()  # behaviours → avoidance → safety envelope → world commands
@@ -264,6 +268,18 @@ class ServiceCore:
             self.events.publish(0.0, "world_loaded", message=f"loaded {path}")
 
         self.call(do)
+
+
+def _fence_bounds(desc: WorldDescription) -> tuple[float, float, float, float]:
+    """The geofence: the world's obstacles, grown to any finite ground plane (an open world's floor)."""
+    xmin, ymin, xmax, ymax = desc.bounds()
+    for m in desc.models:
+        for _, c, wp in m.world_collisions():
+            if isinstance(c.geometry, Plane):
+                hx, hy = c.geometry.size[0] / 2, c.geometry.size[1] / 2
+                xmin, ymin = min(xmin, wp.x - hx), min(ymin, wp.y - hy)
+                xmax, ymax = max(xmax, wp.x + hx), max(ymax, wp.y + hy)
+    return (xmin, ymin, xmax, ymax)
 
 
 def _ro(a: np.ndarray) -> np.ndarray:

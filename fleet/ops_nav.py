@@ -21,9 +21,22 @@ class NavOps(ServiceCore):
     def static_grid(self) -> OccupancyGrid:
         """The world rasterised at robot height once per world (shared by every robot's costmap)."""
         if self._static_grid is None:
-            self._static_grid = rasterize_world(self.world.description, resolution=self.config.costmap_resolution)
+            self._static_grid = rasterize_world(self.world.description, resolution=self.config.costmap_resolution,
+                                                bounds=self.map_bounds())
         assert self._static_grid is not None
         return self._static_grid
+
+    def map_bounds(self) -> tuple[float, float, float, float]:
+        """The planning map's extent: the world's obstacles (+1 m), at least 20 m × 20 m about the origin, and
+        every robot's position ± 5 m, so an open world (e.g. empty with one wall) still has room to plan."""
+        xs0, ys0, xs1, ys1 = self.world.description.bounds(margin=1.0)
+        lo = [min(xs0, -10.0), min(ys0, -10.0)]
+        hi = [max(xs1, 10.0), max(ys1, 10.0)]
+        for name in self.world.robot_names():
+            pose = self.world.robot_pose(name)
+            lo = [min(lo[0], pose.x - 5.0), min(lo[1], pose.y - 5.0)]
+            hi = [max(hi[0], pose.x + 5.0), max(hi[1], pose.y + 5.0)]
+        return (lo[0], lo[1], hi[0], hi[1])
 
     def costmap_for(self, robot: str) -> LayeredCostmap:
         """Each robot's own costmap (its obstacle layer sees what its lidar sees), keep-outs shared."""

@@ -37,6 +37,27 @@ from fleetnav.cmd_check import check_app  # noqa: E402  (typer sub-app; its comm
 app.add_typer(check_app, name="check")
 
 
+from fleetnav.cmd_missions import register as _register_missions  # noqa: E402  (run, validate, replay, diff)
+
+_register_missions(app)
+
+from fleetnav.cmd_serve import register as _register_serve  # noqa: E402  (serve: the MCP server)
+
+_register_serve(app)
+
+from fleetnav.cmd_challenge import challenge_app  # noqa: E402  (challenge run|leaderboard|arenas|list)
+from fleetnav.cmd_log import log as _log  # noqa: E402
+from fleetnav.cmd_teleop import teleop as _teleop  # noqa: E402
+
+app.add_typer(challenge_app, name="challenge")
+app.command("teleop")(_teleop)
+app.command("log")(_log)
+
+from fleetnav.cmd_zenoh import zenoh as _zenoh  # noqa: E402
+
+app.command("zenoh")(_zenoh)
+
+
 def main() -> None:
     app()
 

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import math
+import re
+from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, model_validator
 
+from fleet.types import FleetSnapshot
 from sim.types import LidarScan
 
 ResponseFormat = Literal["summary", "normal", "full"]
@@ -17,6 +20,29 @@ class Answer(BaseModel):
     """Base of every structured answer."""
 
     sim_time: float = Field(description="simulation time of the answer, s")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _plain(cls, data: Any) -> Any:
+        """Service results may hold numpy scalars/arrays and non-finite floats: make them plain JSON values."""
+        return jsonable(data) if isinstance(data, dict) else data
+
+
+def jsonable(v: Any) -> Any:
+    """numpy → Python, non-finite floats → None, tuples → lists; pydantic models are left alone."""
+    if isinstance(v, BaseModel):
+        return v
+    if isinstance(v, dict):
+        return {str(k): jsonable(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [jsonable(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return jsonable(v.tolist())
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
 
 
 def r3(x: float) -> float | None:
@@ -67,4 +93,70 @@ def scan_payload(scan: LidarScan, fmt: ResponseFormat) -> dict[str, Any]:
         d["angle_min"] = scan.angle_min
         d["angle_increment"] = scan.angle_increment
         d["ranges"] = [r3(float(r)) for r in scan.ranges]
+    return d
+
+
+def compress_names(names: Sequence[str], max_chars: int = 300) -> str:
+    """'robot1..robot100, scout2, scout5' for long fleets: runs of numbered names become ranges."""
+    runs: dict[str, list[int]] = {}
+    plain: list[str] = []
+    for n in names:
+        m = re.fullmatch(r"(.*?)(\d+)", n)
+        if m and not (len(m.group(2)) > 1 and m.group(2).startswith("0")):
+            runs.setdefault(m.group(1), []).append(int(m.group(2)))
+        else:
+            plain.append(n)
+    parts: list[str] = []
+    for prefix, nums in runs.items():
+        nums.sort()
+        start = prev = nums[0]
+        for k in [*nums[1:], None]:
+            if k is not None and k == prev + 1:
+                prev = k
+                continue
+            parts.append(f"{prefix}{start}" if start == prev else f"{prefix}{start}..{prefix}{prev}")
+            if k is not None:
+                start = prev = k
+    parts += plain
+    text = ", ".join(parts)
+    if len(text) > max_chars:
+        cut = text[:max_chars].rsplit(", ", 1)[0]
+        text = f"{cut}, … (+{len(parts) - cut.count(', ') - 1} more groups)"
+    return text
+
+
+def fleet_summary(snap: FleetSnapshot, low_battery: float = 0.2, attention: int = 10) -> dict[str, Any]:
+    """Counts and aggregates for the whole fleet (never one line per robot), the names as ranges, and the few
+    robots that need attention (e-stopped, in collision, low battery)."""
+    s = snap.summary()
+    s.pop("time", None)
+    s["names"] = compress_names(snap.names)
+    masks = {"estopped": np.asarray(snap.estopped, dtype=bool), "collision": np.asarray(snap.in_collision, dtype=bool),
+             "low_battery": np.asarray(snap.battery) < low_battery}
+    any_issue = np.logical_or.reduce(list(masks.values())) if len(snap.names) else np.zeros(0, dtype=bool)
+    flagged = [{"name": snap.names[i], "issues": [k for k, m in masks.items() if m[i]]}
+               for i in np.flatnonzero(any_issue)]
+    s["attention"] = flagged[:attention]
+    if len(flagged) > attention:
+        s["attention_more"] = len(flagged) - attention
+    if len(snap.names):
+        lo, hi = snap.pose[:, :2].min(axis=0), snap.pose[:, :2].max(axis=0)
+        s["extent"] = [r3(float(v)) for v in (*lo, *hi)]
+    return s
+
+
+def path_payload(path: np.ndarray, fmt: ResponseFormat, tolerance: float = 0.05) -> dict[str, Any]:
+    """A path as a Douglas–Peucker polyline within `tolerance` m of the original (summary: endpoints only;
+    full: every point)."""
+    pts = np.asarray(path, dtype=float).reshape(-1, 2)
+    d: dict[str, Any] = {"points": len(pts)}
+    if fmt == "summary" or len(pts) == 0:
+        d["ends"] = [[r3(float(x)), r3(float(y))] for x, y in pts[[0, -1]]] if len(pts) else []
+        return d
+    if fmt == "full":
+        d["polyline"] = [[r3(float(x)), r3(float(y))] for x, y in pts]
+        return d
+    simple = simplify_polyline(pts, tolerance)
+    d["polyline"] = [[r3(float(x)), r3(float(y))] for x, y in simple]
+    d["simplified_tolerance_m"] = tolerance
     return d

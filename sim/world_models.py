@@ -128,7 +128,8 @@ def apply_force(world: World, name: str, force: tuple[float, float, float],
 
 def physics_properties(world: World) -> dict[str, Any]:
     params = p.getPhysicsEngineParameters(physicsClientId=world.client)
-    return {"physics_hz": world.physics_hz, "time_step": world.dt, "gravity": list(params["gravity"]),
+    gravity = [params[f"gravityAcceleration{axis}"] for axis in "XYZ"]
+    return {"physics_hz": world.physics_hz, "time_step": world.dt, "gravity": gravity,
             "solver_iterations": params["numSolverIterations"], "fidelity": world.fidelity}
 
 

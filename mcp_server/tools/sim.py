@@ -10,6 +10,7 @@ from pydantic import Field
 from mcp_server.app import app_of, run
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer
+from sim.errors import ErrorCode, FleetError
 
 
 class SimStatus(Answer):
@@ -56,7 +57,7 @@ def register(tool: ToolRegistrar) -> None:
         """World, clock mode, speed, robot and model counts, real-time factor, physics and control rates."""
         svc = app_of(ctx).service
         s = await run(ctx, svc.status)
-        return SimStatus(sim_time=s["time"], world=s["world"], clock=s["clock"], speed=s["speed"],
+        return SimStatus(sim_time=s["time"], world=s["world"], clock=svc.clock.mode.value, speed=s["speed"],
                          robots=s["robots"], models=s["models"], real_time_factor=s["real_time_factor"],
                          physics_hz=s["physics_hz"], control_hz=s["control_hz"], step_count=s["step_count"],
                          world_file=s["world_file"])
@@ -89,8 +90,12 @@ def register(tool: ToolRegistrar) -> None:
                               description="physics steps (1/physics_hz s each)")) -> SimTime:
         """Advance exactly `steps` physics steps now, as fast as possible, then report the sim time."""
         svc = app_of(ctx).service
-        t = await run(ctx, svc.step, steps)
-        return SimTime(sim_time=t, step_count=svc.snapshot.step_count, clock=svc.clock.mode.value)
+
+        def do() -> tuple[float, int]:
+            return svc.step(steps), svc.world.step_count
+
+        t, count = await run(ctx, do)
+        return SimTime(sim_time=t, step_count=count, clock=svc.clock.mode.value)
 
     @tool(read_only=False, destructive=True, title="Reset the world")
     async def reset_simulation(ctx: Context) -> Done:
@@ -125,6 +130,9 @@ def register(tool: ToolRegistrar) -> None:
     async def save_world(ctx: Context, path: str = Field(description="output .world path inside the workspace")) \
             -> Done:
         """Write the current world (models at their current poses) as an SDF 1.9 file."""
+        if not path.endswith((".world", ".sdf")):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"a world file ends in .world or .sdf, got '{path}'",
+                             "e.g. saved/arena.world")
         svc = app_of(ctx).service
         out = await run(ctx, svc.save_world, path)
         return Done(sim_time=svc.snapshot.time, message=f"saved {out}")
@@ -145,5 +153,6 @@ def register(tool: ToolRegistrar) -> None:
 
     @tool(read_only=True, title="List snapshots")
     async def list_snapshots(ctx: Context) -> Snapshots:
+        """Saved snapshots with their sim time and robots."""
         svc = app_of(ctx).service
         return Snapshots(sim_time=svc.snapshot.time, snapshots=await run(ctx, svc.list_snapshots))

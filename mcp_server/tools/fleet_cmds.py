@@ -1,0 +1,198 @@
+"""Fleet tools: spawn in formation, fleet status, fleet commands, task queue and allocation (dry run), docks,
+swarm behaviours with their metrics, multi-robot avoidance, deadlocks, the robot network drawn as markers."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from mcp.server.mcpserver import Context
+from pydantic import BaseModel, Field
+
+from mcp_server.app import app_of, run
+from mcp_server.registry import ToolRegistrar
+from mcp_server.shaping import Answer, ResponseFormat, fleet_summary
+from sim import Pose2D
+
+Formation = Literal["line", "column", "grid", "circle", "wedge", "random"]
+
+
+class PoseXY(BaseModel):
+    x: float
+    y: float
+    yaw: float = 0.0
+
+    def pose(self) -> Pose2D:
+        return Pose2D(self.x, self.y, self.yaw)
+
+
+class TaskSpecIn(BaseModel):
+    type: str = Field(description="an allocatable task type, e.g. go_to, follow_waypoints, cover_area")
+    params: dict[str, Any] = Field(default_factory=dict, description="e.g. {goal: {x, y, yaw}}")
+    priority: int = 0
+    earliest_start: float | None = None
+    deadline: float | None = None
+    id: str | None = None
+
+
+class Result(Answer):
+    result: dict[str, Any]
+
+
+class Items(Answer):
+    items: list[dict[str, Any]]
+
+
+class FleetStatus(Answer):
+    summary: dict[str, Any]
+    robots: list[dict[str, Any]] | None = None
+    behaviours: list[dict[str, Any]] | None = None
+    deadlocks: dict[str, Any] | None = None
+
+
+def _assignment_view(a: dict[str, Any], fmt: ResponseFormat) -> dict[str, Any]:
+    if fmt == "full":
+        return a
+    d = {k: v for k, v in a.items() if k != "path"}
+    d["path_points"] = len(a.get("path") or [])
+    return d
+
+
+def register(tool: ToolRegistrar) -> None:
+    @tool(read_only=False, title="Spawn a fleet in formation")
+    async def spawn_fleet(ctx: Context, count: int = Field(ge=1, le=1000), formation: Formation = "grid",
+                          centre: PoseXY | None = Field(None, description="omitted: the world's centre"),
+                          spacing: float = Field(1.5, gt=0, le=50), prefix: str = "robot",
+                          radius: float | None = Field(None, gt=0, description="random: sampling radius"),
+                          fidelity: Literal["kinematic", "dynamic"] | None = None) -> Result:
+        """Spawn `count` robots in a formation, every slot checked free of obstacles and robots."""
+        svc = app_of(ctx).service
+        out = await run(ctx, svc.spawn_fleet, count, formation, centre.pose() if centre else None, spacing, prefix,
+                        radius=radius, fidelity=fidelity)
+        if count > 20:
+            out["poses"] = f"{len(out['poses'])} poses (list_robots for them)"
+        return Result(sim_time=svc.snapshot.time, result=out)
+
+    @tool(read_only=True, title="Fleet status")
+    async def fleet_status(ctx: Context, response_format: ResponseFormat = "summary") -> FleetStatus:
+        """The whole fleet: summary (aggregates, attention list), normal (+ per-robot rows, behaviours,
+        deadlocks), full (+ every field)."""
+        svc = app_of(ctx).service
+        snap = svc.snapshot
+        out = FleetStatus(sim_time=snap.time, summary=fleet_summary(snap, svc.config.battery.low_threshold))
+        if response_format != "summary":
+            out.robots = [v.to_dict(response_format) for v in snap.robots()]
+            out.behaviours = await run(ctx, svc.behaviour_status)
+            rep = await run(ctx, svc.deadlock_report)
+            out.deadlocks = rep if response_format == "full" else {k: rep[k] for k in ("detected", "resolved",
+                                                                                       "unresolved", "active")}
+        return out
+
+    @tool(read_only=False, title="Fleet command")
+    async def fleet_command(ctx: Context, command: Literal["move", "stop", "formation", "sync", "return_home"],
+                            robots: list[str] | None = Field(None, description="omitted: every robot"),
+                            target: PoseXY | None = Field(None, description="move/formation: the group's centre"),
+                            formation: Formation | None = None, spacing: float | None = Field(None, gt=0, le=50),
+                            queue: bool = Field(False, description="append to the robots' work instead of "
+                                                "replacing it"),
+                            timeout_s: float | None = Field(None, gt=0, description="sync: give up after")) -> Result:
+        """move (formation kept), stop, formation (change shape), sync (barrier: all wait for the slowest),
+        return_home. Returns each robot's task id at once."""
+        app = app_of(ctx)
+        out = await run(ctx, app.service.fleet_command, command, robots, target=target.pose() if target else None,
+                        formation=formation, spacing=spacing, queue=queue, timeout_s=timeout_s,
+                        client=app.client_id)
+        return Result(sim_time=app.service.snapshot.time, result=out)
+
+    @tool(read_only=False, title="Queue a task")
+    async def queue_task(ctx: Context, spec: TaskSpecIn) -> Result:
+        """Queue a task for no robot in particular; assign_tasks hands the queue out."""
+        svc = app_of(ctx).service
+        out = await run(ctx, svc.queue_task, spec.type, spec.params, priority=spec.priority,
+                        earliest_start=spec.earliest_start, deadline=spec.deadline, id=spec.id)
+        return Result(sim_time=svc.snapshot.time, result=out)
+
+    @tool(read_only=False, title="Assign tasks")
+    async def assign_tasks(ctx: Context, tasks: list[TaskSpecIn] | None = Field(None, description="omitted: the "
+                           "queue"), robots: list[str] | None = Field(None, description="omitted: every idle robot"),
+                           method: Literal["hungarian", "greedy", "auction"] = "hungarian",
+                           dry_run: bool = Field(False, description="plan only: nothing is submitted"),
+                           cost: Literal["path", "euclidean"] = "path",
+                           response_format: ResponseFormat = "normal") -> Result:
+        """Allocate tasks to robots: who does what in which order, ETAs, travel, charge stops and tasks that
+        cannot be placed (with why). Unless dry_run, the tasks are submitted (task ids in each assignment)."""
+        app = app_of(ctx)
+        specs = None if tasks is None else [t.model_dump(exclude_none=True) for t in tasks]
+        alloc = await run(ctx, app.service.assign_tasks, specs, robots, method, dry_run, client=app.client_id,
+                          cost=cost)
+        d = alloc.to_dict()
+        d["assignments"] = [_assignment_view(a, response_format) for a in d["assignments"]]
+        return Result(sim_time=app.service.snapshot.time, result=d)
+
+    @tool(read_only=True, title="List docks")
+    async def list_docks(ctx: Context) -> Items:
+        """Charging docks of the world (dock_* models)."""
+        svc = app_of(ctx).service
+        return Items(sim_time=svc.snapshot.time, items=await run(ctx, svc.list_docks))
+
+    @tool(read_only=False, title="Start a swarm behaviour")
+    async def start_swarm_behaviour(ctx: Context, behaviour: Literal["flocking", "coverage", "formation",
+                                    "leader_follower", "rendezvous"], robots: list[str] | None = None,
+                                    params: dict[str, Any] | None = None) -> Result:
+        """Run a swarm behaviour on robots (all by default); swarm_status reports its metric over time."""
+        app = app_of(ctx)
+        out = await run(ctx, app.service.start_behaviour, behaviour, robots, params, client=app.client_id)
+        return Result(sim_time=app.service.snapshot.time, result=out)
+
+    @tool(read_only=False, idempotent=True, title="Stop a swarm behaviour")
+    async def stop_swarm_behaviour(ctx: Context, behaviour_id: str) -> Result:
+        """Stop a running swarm behaviour; its robots stop and its final metrics are kept."""
+        svc = app_of(ctx).service
+        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.stop_behaviour, behaviour_id))
+
+    @tool(read_only=True, title="Swarm behaviour status")
+    async def swarm_status(ctx: Context, behaviour_id: str | None = Field(None, description="omitted: all running"),
+                           history: bool = False) -> Items:
+        """State and outcome metrics (e.g. order, spread, coverage, formation error) of behaviours."""
+        svc = app_of(ctx).service
+        out = await run(ctx, svc.behaviour_status, behaviour_id, history)
+        return Items(sim_time=svc.snapshot.time, items=out if isinstance(out, list) else [out])
+
+    @tool(read_only=True, title="Collision avoidance settings")
+    async def get_collision_avoidance(ctx: Context) -> Result:
+        """The multi-robot avoidance plugin in use and its settings."""
+        svc = app_of(ctx).service
+        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.avoidance_settings))
+
+    @tool(read_only=False, idempotent=True, title="Set collision avoidance")
+    async def set_collision_avoidance(ctx: Context, plugin: Literal["orca", "none"] | None = Field(None, description=
+                                      "plugin; omitted: keep the current one"),
+                                      settings: dict[str, float] | None = Field(None, description="e.g. "
+                                      "time_horizon, neighbor_dist, max_neighbors, radius_margin")) -> Result:
+        """Enable/disable multi-robot avoidance (orca | none) or tune it."""
+        svc = app_of(ctx).service
+        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.set_avoidance, plugin, **(settings or {})))
+
+    @tool(read_only=True, title="Deadlock report")
+    async def deadlock_report(ctx: Context) -> Result:
+        """Deadlocks detected, resolved and open, the robots involved and the policy in use."""
+        svc = app_of(ctx).service
+        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.deadlock_report))
+
+    @tool(read_only=False, idempotent=True, title="Configure deadlock handling")
+    async def configure_deadlocks(ctx: Context, policy: Literal["priority", "replan", "none"] | None = None,
+                                  settings: dict[str, float] | None = None) -> Result:
+        """Change the deadlock policy (priority | replan | none) or its thresholds (wait_s, stall_s, ...)."""
+        svc = app_of(ctx).service
+        kw = dict(settings or {}) | ({"policy": policy} if policy else {})
+        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.configure_deadlocks, **kw))
+
+    @tool(read_only=False, title="Visualise the robot network")
+    async def visualize_robot_network(ctx: Context, view: Literal["comms", "formation", "collision_zones", "tasks"]
+                                      = "comms", comm_range: float = Field(5.0, gt=0, le=1000),
+                                      robots: list[str] | None = None,
+                                      lifetime_s: float | None = Field(10.0, gt=0)) -> Result:
+        """Draw the comms graph, formation lines, collision zones or task lines as debug markers (namespace
+        `network`, visible in get_occupancy_map and recordings); returns the edges."""
+        svc = app_of(ctx).service
+        out = await run(ctx, svc.network_markers, view, comm_range, robots, lifetime_s)
+        return Result(sim_time=svc.snapshot.time, result=out)

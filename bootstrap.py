@@ -25,7 +25,7 @@ STAMP = VENV / ".fleetnav-installed"
 
 
 def ensure_env() -> None:
-    if sys.version_info < (3, 11):
+    if sys.version_info < (3, 11):  # noqa: UP036 - this file must also run (and fail clearly) on older Pythons
         sys.exit(f"fleetnav needs Python ≥ 3.11; this is {sys.version.split()[0]}")
     if not PY.exists():
         print(f"creating {VENV} ...", flush=True)

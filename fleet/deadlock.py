@@ -318,7 +318,9 @@ class DeadlockMonitor:
         h, hp = np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])
         gap = np.sqrt(d2[near]) - t.f["radius"][near] - t.f["radius"][i] if near.any() else np.array([np.inf])
         if gap.min() < CONTACT_GAP or wall_gap < 2 * CONTACT_GAP:  # touching: a turn would swing a corner
-            return float(np.sign(u @ h) or -1.0) * self.config.backoff_speed, 0.0  # into it; straight out first
+            facing = float(normal[0] @ h)  # into it; straight out first (away from the wall when at one)
+            sign = -np.sign(facing) if wall_gap < 2 * CONTACT_GAP and abs(facing) > 0.2 else np.sign(u @ h)
+            return float(sign or -1.0) * self.config.backoff_speed, 0.0
         return float(u @ h), float(np.clip((u @ hp) / OFFSET, -t.f["max_w"][i], t.f["max_w"][i]))
 
     def _replan(self, dl: Deadlock, now: float) -> bool:

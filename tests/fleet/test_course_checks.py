@@ -41,9 +41,14 @@ def _drop(root: ET.Element, path: str, keep: int = 0) -> None:
         parent_of[el].remove(el)
 
 
+def _drop_all(root: ET.Element, paths: list[str]) -> None:
+    for path in paths:
+        _drop(root, path)
+
+
 WORLD_MUTATIONS = {
     "lights": lambda r: _drop(r, ".//world/light", keep=1),
-    "shape_variety": lambda r: [_drop(r, f".//model[@name='{m}']") for m in ("sphere_ball", "sphere_boulder")],
+    "shape_variety": lambda r: _drop_all(r, [f".//model[@name='{m}']" for m in ("sphere_ball", "sphere_boulder")]),
     "spawn_point": lambda r: _drop(r, ".//world/frame"),
     "ground_textured": lambda r: _drop(r, ".//model[@name='ground_plane']//material"),
 }

@@ -4,6 +4,7 @@ recording (trajectories, collisions, gaps) or from the run's own records. One se
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -29,7 +30,8 @@ def runs(tmp_path_factory):
 
 def tracks(run):
     """robot → (k, 4) rows (t, x, y, yaw) and the in-collision flags, from the recording's state stream."""
-    rows, hits = {}, {}
+    rows: dict[str, list[Any]] = {}
+    hits: dict[str, list[bool]] = {}
     for st in states(run.out_dir / "recording.mcap"):
         for name, pose, hit in zip(st["names"], st["pose"], st["in_collision"], strict=True):
             rows.setdefault(name, []).append([st["t"], *pose])
@@ -63,7 +65,8 @@ def test_figures_in_the_report_match_the_recording(runs, name):
     traj, hits = tracks(run)
     by_name = {a["name"]: a for a in report["assertions"]}
     radius = load_robot_spec(default_robot_path()).footprint_radius
-    for spec, name_ in zip(mission.assertions, mission.assertion_names(), strict=True):
+    for spec_, name_ in zip(mission.assertions, mission.assertion_names(), strict=True):
+        spec: Any = spec_  # a union of assertion models, told apart by `type`
         got = by_name[name_]
         if spec.type == "reach_goal":
             gx, gy = (spec.goal.x, spec.goal.y) if spec.goal else _task_goal(mission, spec.task)

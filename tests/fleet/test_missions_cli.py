@@ -22,11 +22,12 @@ def test_failing_assertion_exits_non_zero_with_a_junit_failure_carrying_numbers(
     suites = ET.parse(tmp_path / "junit.xml").getroot()
     failures = suites.findall(".//failure")
     assert len(failures) == 1
-    msg = failures[0].get("message")
+    msg = failures[0].get("message") or ""
     assert "closest" in msg and "required within 0.3 m by t=3 s" in msg
     closest = float(msg.split("closest ")[1].split(" m")[0])
     assert 9.0 < closest < 12.5  # ~12.7 m from the start to the goal, minus what 3 s of driving covers
-    assert suites.find(".//testsuite[@name='quick_mission[seed=0]']").get("failures") == "0"
+    suite = suites.find(".//testsuite[@name='quick_mission[seed=0]']")
+    assert suite is not None and suite.get("failures") == "0"
 
 
 def test_all_passing_exits_zero_and_repeat_reports_the_pass_rate(tmp_path):
@@ -80,5 +81,5 @@ def test_pytest_plugin_runs_missions_as_tests(tmp_path):
     assert "1 failed, 1 passed" in res.stdout
     assert "too_fast: r1" in res.stdout
     cases = ET.parse(tmp_path / "j.xml").getroot().findall(".//testcase")
-    props = {p.get("name"): p.get("value") for c in cases for p in c.findall(".//property")}
+    props = {p.get("name"): p.get("value") or "" for c in cases for p in c.findall(".//property")}
     assert props["hops"].startswith("pass") and props["too_fast"].startswith("FAIL")

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from sim import Pose2D, World, load_robot_spec, default_robot_path
+from sim import ImuReading, Pose2D, World, default_robot_path, load_robot_spec
 
 
 def test_each_sensor_publishes_at_its_rate_in_sim_time(world: World):
@@ -25,8 +25,15 @@ def test_imu_at_rest_reads_gravity_plus_bias():
         "imu": spec.sensors.imu.model_copy(update={"accel_bias": (0.1, -0.05, 0.02), "gyro_bias": (0, 0, 0.01)})})})
     with World(physics_hz=100, seed=0) as w:
         w.spawn_robot("r", Pose2D(), spec=spec)
-        acc, gyr = [], []
-        w.subscribe(lambda r: (acc.append(r.linear_acceleration), gyr.append(r.angular_velocity)), kinds=("imu",))
+        acc: list[tuple[float, float, float]] = []
+        gyr: list[tuple[float, float, float]] = []
+
+        def on_imu(r: object) -> None:
+            assert isinstance(r, ImuReading)
+            acc.append(r.linear_acceleration)
+            gyr.append(r.angular_velocity)
+
+        w.subscribe(on_imu, kinds=("imu",))
         w.run_for(5.0)
     a, g = np.array(acc), np.array(gyr)
     assert a.mean(0) == pytest.approx([0.1, -0.05, 9.81 + 0.02], abs=0.006)

@@ -72,7 +72,7 @@ def test_replay_and_diff_commands(tmp_path):
 
 
 def test_pytest_plugin_runs_missions_as_tests(tmp_path):
-    args = ["-p", "fleet.missions.pytest_plugin", "-p", "no:cacheprovider", "--missions", str(QUICK),
+    args = ["-p", "no:cacheprovider", "--missions", str(QUICK),  # the plugin comes from the pytest11 entry point
             "--missions", str(FAILING), "--missions-out", str(tmp_path / "runs"), "--junitxml", str(tmp_path / "j.xml"),
             "-q", "--rootdir", str(tmp_path), str(tmp_path)]
     res = subprocess.run([sys.executable, "-m", "pytest", *args], capture_output=True, text=True, cwd=tmp_path,

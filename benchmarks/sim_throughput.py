@@ -128,8 +128,10 @@ def main() -> None:
                     help="peer robot body: our footprint box (default) or our full robot URDF")
     ap.add_argument("--no-peer", action="store_true", help="skip pybullet-fleet")
     ap.add_argument("--peer-only", action="store_true", help="run only pybullet-fleet (e.g. with --peer-robot urdf)")
+    ap.add_argument("--robots", type=int, nargs="+", help="fleet sizes to run (default 1 10 100 500 1000)")
+    ap.add_argument("--drive", choices=("kinematic", "dynamic"), help="run only this drive model")
     args = ap.parse_args()
-    counts = [1, 10, 100] if args.quick else [1, 10, 100, 500, 1000]
+    counts = args.robots or ([1, 10, 100] if args.quick else [1, 10, 100, 500, 1000])
     budget = Budget(5, 100, 0.5) if args.quick else Budget(10, 300, 3.0)
     peer_steps = 100 if args.quick else 600  # the peer-comparison row runs exactly as many 0.1 s steps
     console = Console(width=220)
@@ -139,7 +141,7 @@ def main() -> None:
     peer: PeerResult | str | None = None
     if args.peer_only:
         peer = peer_run(args, counts[-1], peer_steps, console)
-    for cfg in [] if args.peer_only else configs(counts):
+    for cfg in [] if args.peer_only else [c for c in configs(counts) if args.drive in (None, c.drive)]:
         headline = cfg.drive == "kinematic" and cfg.beams is None and cfg.robots == counts[-1]
         b = Budget(peer_steps, peer_steps, 0.0) if headline else budget
         results.append(run_config(cfg, make_scene(cfg.robots), b))

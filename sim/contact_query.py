@@ -48,21 +48,13 @@ def candidate_pairs(world: World, rows: np.ndarray) -> list[tuple[int, int]]:
     if uids.size:
         tall = (lo[:, 2] <= ROBOT_TOP) & (hi[:, 2] >= 0.0)
         uids, lo, hi = uids[tall], lo[tall], hi[tall]
-        # Obstacle boxes grown by the largest robot radius, indexed by centre: a k-d tree ball query finds
-        # the boxes a robot's circle can reach, then the exact box-vs-circle-bound test.
+        # Every (robot, obstacle box) pair at once: one vectorised box-versus-circle-bound test.
         if uids.size:
-            rmax = float(r[rows].max())
-            centres = (lo[:, :2] + hi[:, :2]) / 2
-            half_diag = float(np.max(np.hypot(*((hi[:, :2] - lo[:, :2]) / 2).T)))
-            near_lists = cKDTree(centres).query_ball_point(xy[rows], half_diag + rmax)
-            for k, js in enumerate(near_lists):
-                if not js:
-                    continue
-                i = rows[k]
-                jj = np.asarray(js)
-                hit = ((xy[i, 0] + r[i] >= lo[jj, 0]) & (xy[i, 0] - r[i] <= hi[jj, 0])
-                       & (xy[i, 1] + r[i] >= lo[jj, 1]) & (xy[i, 1] - r[i] <= hi[jj, 1]))
-                pairs += [(int(body[i]), int(u)) for u in uids[jj[hit]].tolist()]
+            rx, ry, rr = xy[rows, 0:1], xy[rows, 1:2], r[rows][:, None]
+            hit = ((rx + rr >= lo[None, :, 0]) & (rx - rr <= hi[None, :, 0])
+                   & (ry + rr >= lo[None, :, 1]) & (ry - rr <= hi[None, :, 1]))
+            k, j = np.nonzero(hit)
+            pairs += list(zip(body[rows[k]].tolist(), uids[j].tolist(), strict=True))
     return pairs
 
 

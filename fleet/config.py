@@ -33,4 +33,6 @@ class FleetConfig(StrictModel):
     near_miss_distance: float = Field(0.3, ge=0, description="robot-robot clearance that counts as a near miss")
     avoidance: dict[str, Any] = Field(default_factory=lambda: {"type": "orca"},
                                       description="multi-robot avoidance plugin; {type: none} disables it")
+    deadlock: dict[str, Any] = Field(default_factory=dict,
+                                     description="fleet.deadlock.DeadlockConfig fields (policy, thresholds)")
     workspace: str = Field(".", description="the only directory file arguments may read or write")

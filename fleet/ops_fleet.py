@@ -45,7 +45,7 @@ class FleetOps(ServiceCore):
         svc = cast("FleetService", self)
         self.behaviours = BehaviourManager(svc)
         self.control.add_source(self.behaviours)  # after the task manager: a task wins over a behaviour
-        deadlock = getattr(self.config, "deadlock", None) or {}  # FleetConfig.deadlock, once it has that section
+        deadlock = self.config.deadlock
         self.deadlocks = DeadlockMonitor(svc, _validated(DeadlockConfig, dict(deadlock), "deadlock"))
         self.control.sources.insert(0, self.deadlocks)  # a back-off overrides the task it interrupts
         self.avoidance: Avoidance = make_avoidance(self.config.avoidance)

@@ -82,7 +82,11 @@ class ServiceCore:
         self._static_grid: OccupancyGrid | None = None
         self._costmaps: dict[str, LayeredCostmap] = {}
         self._keepouts: list[list[tuple[float, float]]] = []
-        self._init_extensions()
+        try:
+            self._init_extensions()
+        except BaseException:  # a bad config section: free the PyBullet client, then let the error out
+            self.world.close()
+            raise
         self._steps_per_control = max(1, round(c.physics_hz / c.control_hz))
         self._rtf_window: tuple[float, float] = (time.perf_counter(), self.world.time)
         self._rtf = float("nan")

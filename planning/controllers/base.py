@@ -8,16 +8,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar, runtime_checkable
 
-from pydantic import Field, ValidationError
+from pydantic import Field
 
 from planning.controllers.reference import PathReference
 from planning.nav_types import ControlOutput
 from planning.types import Costmap
 from sim.config import StrictModel
-from sim.errors import ErrorCode, FleetError, unknown_name
+from sim.plugins import PluginRegistry
 from sim.robot_spec import LimitsSpec
 from sim.types import Pose2D
 
@@ -43,50 +42,24 @@ class ControllerConfig(StrictModel):
     min_linear: float = Field(0.0, le=0.0, description="most negative forward speed allowed, m/s")
 
 
-@dataclass(frozen=True, slots=True)
-class _Entry:
-    config: type[ControllerConfig]
-    factory: Callable[..., Controller]
-
-
-_REGISTRY: dict[str, _Entry] = {}
-
+_REGISTRY: PluginRegistry[Controller] = PluginRegistry("controller")
 C = TypeVar("C")
 
 
 def register_controller(name: str, config: type[ControllerConfig]) -> Callable[[C], C]:
     """Class decorator: register `cls` under `name`; registering a name twice raises."""
-
-    def wrap(cls: C) -> C:
-        if name in _REGISTRY:
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"controller '{name}' is already registered",
-                             "choose another name for the new controller")
-        _REGISTRY[name] = _Entry(config, cls)  # type: ignore[arg-type]
-        return cls
-
-    return wrap
+    return _REGISTRY.register(name, config)
 
 
 def controller_names() -> list[str]:
-    return sorted(_REGISTRY)
+    return _REGISTRY.names()
 
 
 def make_controller(config: Mapping[str, Any] | ControllerConfig, limits: LimitsSpec) -> Controller:
     """Build a controller from `{type: name, ...tuning}` and the robot's velocity/acceleration limits."""
     data = config.model_dump() if isinstance(config, ControllerConfig) else dict(config)
-    name = str(data.get("type", ""))
-    entry = _REGISTRY.get(name)
-    if entry is None:
-        raise unknown_name("controller", name, controller_names(), ErrorCode.INVALID_CONFIG)
-    try:
-        cfg = entry.config.model_validate(data)
-    except ValidationError as exc:
-        fields = "; ".join(f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in exc.errors())
-        raise FleetError(ErrorCode.INVALID_CONFIG, f"controller '{name}': {fields}",
-                         f"see the {entry.config.__name__} fields") from exc
-    kwargs = cfg.model_dump(exclude={"type"})
-    return entry.factory(max_v=limits.max_linear, max_w=limits.max_angular, max_a=limits.max_linear_accel,
-                         max_alpha=limits.max_angular_accel, **kwargs)
+    return _REGISTRY.make(data, max_v=limits.max_linear, max_w=limits.max_angular, max_a=limits.max_linear_accel,
+                          max_alpha=limits.max_angular_accel)
 
 
 class RateLimiter:

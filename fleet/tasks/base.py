@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -37,7 +38,7 @@ class TaskContext:
 
 
 @dataclass
-class Task:
+class Task(ABC):
     """A unit of work for one robot. Subclasses implement `begin` and `step`; both run on the sim thread.
 
     `step` returns the (v, ω) to apply, and ends the task with `self.succeed()`, `self.fail(reason)`."""
@@ -56,16 +57,17 @@ class Task:
     progress: dict[str, Any] = field(default_factory=dict)
     not_before: float = -math.inf  # sim time before which the manager does not start it (a time window)
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, service: FleetService) -> None:  # noqa: B027 - an optional hook, not abstract
         """Check params when submitted, so bad input fails at once (override per type)."""
 
-    def begin(self, ctx: TaskContext) -> None:
+    def begin(self, ctx: TaskContext) -> None:  # noqa: B027 - an optional hook, not abstract
         """Called once when the task becomes active."""
 
+    @abstractmethod
     def step(self, ctx: TaskContext) -> Command:
-        raise NotImplementedError  # every registered task type overrides step (enforced at registration)
+        """One control tick of the task: the (v, ω) to apply."""
 
-    def cancel(self, reason: str) -> None:
+    def cancel(self, reason: str) -> None:  # noqa: B027 - an optional hook, not abstract
         """Stop whatever the task drives; the manager marks it canceled."""
 
     @classmethod
@@ -116,7 +118,7 @@ def register_task(cls: type[Task]) -> type[Task]:
         raise ValueError(f"{cls.__name__} has no type_name")
     if name in _REGISTRY:
         raise ValueError(f"task type '{name}' is already registered")
-    if cls.step is Task.step:
+    if getattr(cls.step, "__isabstractmethod__", False):
         raise TypeError(f"{cls.__name__} must implement step()")
     _REGISTRY[name] = cls
     return cls

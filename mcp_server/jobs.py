@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import anyio
+from mcp.server.mcpserver import Context
 
+from mcp_server.app import App, app_of
 from sim.errors import ErrorCode, FleetError
 
 MAX_RUNNING = 2
@@ -74,3 +76,27 @@ class JobRunner:
             raise FleetError(ErrorCode.NOT_FOUND, f"no job '{job_id}'",
                              f"jobs: {', '.join(self.jobs) or 'none'}")
         return self.jobs[job_id]
+
+
+def jobs_of(app: App) -> JobRunner:
+    """The server's one job runner (missions and challenges share it)."""
+    runner = app.extras.get("jobs")
+    if not isinstance(runner, JobRunner):
+        runner = app.extras["jobs"] = JobRunner()
+    return runner
+
+
+def job_ref(job: Job) -> dict[str, Any]:
+    return {"id": job.id, "state": job.state, "source": job.source}
+
+
+async def await_job(ctx: Context, job_id: str, wait_s: float) -> Job:
+    """The job, after waiting up to `wait_s` wall seconds for it to end, with MCP progress notifications."""
+    runner = jobs_of(app_of(ctx))
+    job = runner.get(job_id)
+
+    async def report(j: Job) -> None:
+        await ctx.report_progress(j.progress.get("done", 0.0), j.progress.get("total"), f"{j.id} {j.state}")
+
+    await runner.wait(job, wait_s, report)
+    return job

@@ -10,9 +10,9 @@ from mcp.server.mcpserver import Context
 from pydantic import Field
 
 from mcp_server.app import app_of
+from mcp_server.jobs import await_job, job_ref, jobs_of
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat
-from mcp_server.tools.missions import _jobs
 from sim.errors import ErrorCode, FleetError
 
 
@@ -83,33 +83,27 @@ def register(tool: ToolRegistrar) -> None:
             return grade(src, controller=f"builtin:{name}", runs=runs, out_dir=out / f"{src.stem}_{name}",
                          progress=on_run)
 
-        job = _jobs(app).start("challenge", str(src), work)
-        return ChallengeJob(sim_time=svc.snapshot.time, job={"id": job.id, "state": job.state, "source": job.source})
+        job = jobs_of(app).start("challenge", str(src), work)
+        return ChallengeJob(sim_time=svc.snapshot.time, job=job_ref(job))
 
     @tool(read_only=True, title="Challenge status")
     async def challenge_status(ctx: Context, job_id: str, wait_s: float = Field(0.0, ge=0, le=600, description=
                                "wait up to this many wall seconds for it to finish (progress notifications)")) \
             -> ChallengeJob:
         """running (runs done so far) or finished with success rate and mean score."""
-        app = app_of(ctx)
-        job = _jobs(app).get(job_id)
-
-        async def report(j: Any) -> None:
-            await ctx.report_progress(j.progress.get("done", 0.0), j.progress.get("total"), f"{j.id} {j.state}")
-
-        await _jobs(app).wait(job, wait_s, report)
-        d: dict[str, Any] = {"id": job.id, "state": job.state, "source": job.source, "error": job.error,
+        job = await await_job(ctx, job_id, wait_s)
+        d: dict[str, Any] = {**job_ref(job), "error": job.error,
                              "runs_done": job.progress.get("done"), "wall_s": job.progress.get("wall_s")}
         if job.result is not None:
             d.update({"success_rate": job.result.success_rate, "mean_score": job.result.mean_score})
-        return ChallengeJob(sim_time=app.service.snapshot.time, job=d)
+        return ChallengeJob(sim_time=app_of(ctx).service.snapshot.time, job=d)
 
     @tool(read_only=True, title="Challenge report")
     async def challenge_report(ctx: Context, job_id: str, response_format: ResponseFormat = "normal") \
             -> ChallengeJob:
         """The finished challenge's report: per-run outcome and score, summary statistics, rubric, files."""
         app = app_of(ctx)
-        job = _jobs(app).get(job_id)
+        job = jobs_of(app).get(job_id)
         if job.result is None:
             raise FleetError(ErrorCode.BUSY if job.state == "running" else ErrorCode.NOT_FOUND,
                              f"job {job_id} has no report ({job.state}{': ' + job.error if job.error else ''})",

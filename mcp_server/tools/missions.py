@@ -10,8 +10,8 @@ import anyio
 from mcp.server.mcpserver import Context
 from pydantic import Field
 
-from mcp_server.app import App, app_of
-from mcp_server.jobs import JobRunner
+from mcp_server.app import app_of
+from mcp_server.jobs import await_job, job_ref, jobs_of
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat
 
@@ -28,13 +28,6 @@ class MissionCheck(Answer):
 
 class Rubric(Answer):
     report: dict[str, Any]
-
-
-def _jobs(app: App) -> JobRunner:
-    runner = app.extras.get("jobs")
-    if not isinstance(runner, JobRunner):
-        runner = app.extras["jobs"] = JobRunner()
-    return runner
 
 
 def _report_view(report: dict[str, Any], fmt: ResponseFormat) -> dict[str, Any]:
@@ -76,30 +69,24 @@ def register(tool: ToolRegistrar) -> None:
         svc = app.service
         src = svc.workspace.resolve(path)
         out = svc.workspace.resolve(f"runs/{src.stem}", write=True)
-        runner = _jobs(app)
+        runner = jobs_of(app)
         req = RunRequest(str(src), seed, str(out / f"run{len(runner.jobs) + 1}"), record, time_limit)
         job = runner.start("mission", str(src), lambda progress: run_file(req, progress))
-        return MissionJob(sim_time=svc.snapshot.time, job={"id": job.id, "state": job.state, "source": job.source})
+        return MissionJob(sim_time=svc.snapshot.time, job=job_ref(job))
 
     @tool(read_only=True, title="Mission status")
     async def mission_status(ctx: Context, job_id: str, wait_s: float = Field(0.0, ge=0, le=600, description=
                              "wait up to this many wall seconds for it to finish (progress notifications)")) \
             -> MissionJob:
         """running (with sim time reached / time limit) or finished with PASS/FAIL and where it wrote."""
-        app = app_of(ctx)
-        job = _jobs(app).get(job_id)
-
-        async def report(j: Any) -> None:
-            await ctx.report_progress(j.progress.get("done", 0.0), j.progress.get("total"), f"{j.id} {j.state}")
-
-        await _jobs(app).wait(job, wait_s, report)
-        d: dict[str, Any] = {"id": job.id, "state": job.state, "source": job.source, "error": job.error,
+        job = await await_job(ctx, job_id, wait_s)
+        d: dict[str, Any] = {**job_ref(job), "error": job.error,
                              "progress": {"sim_time": job.progress.get("done"), "time_limit": job.progress.get("total"),
                                           "wall_s": job.progress.get("wall_s")}}
         if job.result is not None:
             d.update({"passed": job.result.passed, "summary": job.result.summary(),
                       "out_dir": str(job.result.out_dir), "error": job.result.error or job.error})
-        return MissionJob(sim_time=app.service.snapshot.time, job=d)
+        return MissionJob(sim_time=app_of(ctx).service.snapshot.time, job=d)
 
     @tool(read_only=True, title="Mission report")
     async def mission_report(ctx: Context, job_id: str, response_format: ResponseFormat = "normal") -> MissionJob:
@@ -107,7 +94,7 @@ def register(tool: ToolRegistrar) -> None:
         from sim.errors import ErrorCode, FleetError
 
         app = app_of(ctx)
-        job = _jobs(app).get(job_id)
+        job = jobs_of(app).get(job_id)
         if job.result is None:
             raise FleetError(ErrorCode.BUSY if job.state == "running" else ErrorCode.NOT_FOUND,
                              f"job {job_id} has no report ({job.state}{': ' + job.error if job.error else ''})",

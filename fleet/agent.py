@@ -9,6 +9,11 @@
 
 Lock-step (the world waits each control tick for this agent): `agent.lockstep(["r1"], step)` calls
 `step(tick, stamp)` once per tick and sends the (v, w) it returns for each robot.
+
+Leases: the first command takes the robot's lease, every command renews it; it lapses after the world's idle
+expiry, on `agent.release("r1")`, or the moment this agent's session closes (its liveliness token disappears).
+A background thread beats `heartbeat_hz` times a second: a world that misses 2 beats reports this agent as
+`agent_unresponsive` (a hung process), while its deadman stops the robots.
 """
 
 from __future__ import annotations
@@ -127,8 +132,12 @@ class RobotLink:
 
 class Agent:
     def __init__(self, agent_id: str, *, connect: str | list[str] | None = None, world: str | None = None,
-                 config: ZenohConfig | None = None, timeout: float = 10.0) -> None:
+                 config: ZenohConfig | None = None, timeout: float = 10.0, heartbeat_hz: float = 4.0) -> None:
         self.id = check_name("agent id", agent_id)
+        if not (math.isfinite(heartbeat_hz) and 0 <= heartbeat_hz <= 100):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"heartbeat_hz must be in [0, 100], got {heartbeat_hz}",
+                             "a few Hz is enough; 0 disables the heartbeat")
+        self.heartbeat_hz = heartbeat_hz
         if config is None:
             eps = [connect] if isinstance(connect, str) else list(connect or [])
             config = ZenohConfig(mode="client" if eps else "peer", connect=eps, multicast_scouting=not eps)
@@ -141,6 +150,9 @@ class Agent:
         self._cond = threading.Condition()
         self._ticks: queue.SimpleQueue[dict[str, Any]] | None = None  # the lock-step loop's inbox
         self._decls: list[Any] = []
+        self._known: set[str] = set()  # robots the world reported (checked before linking)
+        self._beat_stop = threading.Event()
+        self._beat: threading.Thread | None = None
         self.session: zenoh.Session
 
     def __enter__(self) -> Agent:
@@ -162,9 +174,31 @@ class Agent:
             self.session.declare_subscriber(k.agent_errors(self.id), _direct(self._on_error)),
             self.session.liveliness().declare_token(k.alive_agent(self.id)),
         ]
+        if self.heartbeat_hz > 0:
+            pub = self.session.declare_publisher(k.agent_heartbeat(self.id), encoding=zenoh.Encoding.APPLICATION_JSON,
+                                                 congestion_control=zenoh.CongestionControl.DROP,
+                                                 priority=zenoh.Priority.INTERACTIVE_HIGH, express=True)
+            self._decls.insert(0, pub)
+            self._beat_stop.clear()
+            self._beat = threading.Thread(target=self._heartbeat, args=(pub,), name=f"fleetnav-heartbeat-{self.id}",
+                                          daemon=True)
+            self._beat.start()
         return self
 
+    def _heartbeat(self, pub: zenoh.Publisher) -> None:
+        period, seq = 1.0 / self.heartbeat_hz, 0
+        while True:
+            pub.put(dumps({"agent": self.id, "period": period, "seq": seq}))
+            seq += 1
+            if self._beat_stop.wait(period):
+                return
+
     def close(self) -> None:
+        """Leave: the world releases this agent's leases as soon as its liveliness token disappears."""
+        self._beat_stop.set()
+        if self._beat is not None:
+            self._beat.join(timeout=2)
+            self._beat = None
         for r in self._robots.values():
             r.close()
         for d in reversed(self._decls):
@@ -219,10 +253,29 @@ class Agent:
 
     # ---- robots and requests ------------------------------------------------------------------------------
 
-    def robot(self, name: str, streams: Iterable[str] = ("odom", "scan", "pose")) -> RobotLink:
+    def robot(self, name: str, streams: Iterable[str] = ("odom", "scan", "pose"), *, check: bool = True) -> RobotLink:
+        """Link to a robot; with `check`, an unknown robot is an UNKNOWN_ROBOT error listing the world's robots
+        (instead of waiting for streams that never come)."""
         if name not in self._robots:
-            self._robots[name] = RobotLink(self, check_name("robot", name), streams)
+            check_name("robot", name)
+            if check and name not in self._known:
+                self._known = set(self.fleet_state()["names"])
+                if name not in self._known:
+                    listing = ", ".join(sorted(self._known)) or "(none)"
+                    raise FleetError(ErrorCode.UNKNOWN_ROBOT, f"world '{self.keys.world}' has no robot '{name}' "
+                                     f"(robots: {listing})", f"spawn it first: agent.spawn('{name}', x, y) or "
+                                     f"`fleetnav zenoh --spawn {name}@x,y,yaw`")
+            self._robots[name] = RobotLink(self, name, streams)
         return self._robots[name]
+
+    def release(self, robot: str) -> bool:
+        """Give the robot's lease back now (its current command stops); False if this agent did not hold it."""
+        return bool(self.request("lease", robot=robot, release=True)["released"])
+
+    def override(self, robot: str, reason: str = "operator override", hold_s: float | None = None) -> dict[str, Any]:
+        """Operator: take the robot from whichever agent holds it (it stops; a `lease_override` event names the
+        previous holder). Restrict who may do this with Zenoh access control on `fleet/command/override`."""
+        return self.request("override", robot=robot, reason=reason, hold_s=hold_s)
 
     def query(self, key: str, payload: dict[str, Any] | None = None, timeout: float | None = None) -> Any:
         """One reply from the world: its JSON on success, a FleetError raised on an error reply."""

@@ -70,7 +70,7 @@ class ServiceCore:
         self.world = World.from_sdf(path, physics_hz=c.physics_hz, seed=c.seed, fidelity=c.fidelity)
         self.world_path = path
         desc = self.world.description
-        self.safety = SafetyEnvelope(c.safety, _fence_bounds(desc))
+        self.safety = SafetyEnvelope(c.safety, _fence_bounds(desc), control_hz=c.control_hz)
         self.battery = BatteryBank(c.battery)
         # Worlds mark docks as `dock_*` models (visual pads); the battery bank charges at all of them.
         self.docks = dock_table(desc)

@@ -1,19 +1,21 @@
 """The safety envelope: the one chokepoint every velocity command goes through, from every front door.
 
 Limits (clamp, or reject in strict mode, saying which), a deadman on manual commands (sim time), a latched
-e-stop per robot or for the fleet with explicit re-arm, a geofence, one controlling client per robot (a
-lease, wall-clock TTL) and a per-client command rate limit (wall clock).
+e-stop per robot or for the fleet with explicit re-arm, a geofence, one controlling client per robot (a lease
+renewed by the holder's commands, lapsing after `lease_idle_s` of silence, released at once when a front door
+reports the client gone, taken by an operator override), and command rate limits per robot and per client
+(per sim second; see fleet.leases).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections import deque
 from dataclasses import dataclass
 
 from pydantic import Field
 
+from fleet.leases import Departed, Lease, RateWindow
 from sim.config import StrictModel
 from sim.errors import ErrorCode, FleetError
 
@@ -23,17 +25,15 @@ AUTONOMY = "fleet"  # the client id tasks and behaviours act under
 class SafetyConfig(StrictModel):
     strict: bool = Field(False, description="reject commands past the limits instead of clamping them")
     deadman_s: float = Field(0.5, gt=0, description="a manual velocity command expires after this (sim s)")
-    lease_ttl_s: float = Field(30.0, gt=0, description="a lease lapses this long after its last use (wall s)")
-    max_command_rate_hz: float = Field(200.0, gt=0, description="per client, wall clock")
+    lease_idle_s: float = Field(3.0, gt=0, le=3600,
+                                description="a lease lapses this long after its holder's last command (wall s)")
+    robot_rate_hz: float | None = Field(None, gt=0, description="accepted commands per sim second per robot; "
+                                        "null: 4 × the control rate")
+    agent_rate_hz: float = Field(5000.0, gt=0, description="accepted commands per sim second per client: a "
+                                 "ceiling sized for a fleet controller driving every robot")
     geofence: tuple[float, float, float, float] | None = Field(
         None, description="(xmin, ymin, xmax, ymax); null: the world's bounds")
     geofence_margin: float = Field(0.5, ge=0, description="metres added around the world's bounds")
-
-
-@dataclass
-class Lease:
-    client: str
-    expires: float  # wall clock (time.monotonic)
 
 
 @dataclass(frozen=True)
@@ -45,8 +45,10 @@ class ManualCommand:
 
 
 class SafetyEnvelope:
-    def __init__(self, config: SafetyConfig, bounds: tuple[float, float, float, float]) -> None:
+    def __init__(self, config: SafetyConfig, bounds: tuple[float, float, float, float], *,
+                 control_hz: float = 10.0) -> None:
         self.config = config
+        self.control_hz = control_hz
         b = config.geofence or bounds
         m = 0.0 if config.geofence else config.geofence_margin
         self.fence = (b[0] - m, b[1] - m, b[2] + m, b[3] + m)
@@ -54,7 +56,8 @@ class SafetyEnvelope:
         self.fleet_estop: str | None = None
         self.leases: dict[str, Lease] = {}
         self.manual: dict[str, ManualCommand] = {}
-        self._rates: dict[str, deque[float]] = {}
+        self.departed = Departed()
+        self._robot_rates, self._client_rates = RateWindow(), RateWindow()
 
     # ---- leases ---------------------------------------------------------------------------------------
 
@@ -65,14 +68,27 @@ class SafetyEnvelope:
             return None
         return lease.client
 
-    def acquire(self, client: str, robot: str, ttl: float | None = None) -> Lease:
-        """Take or renew the lease; fails with LEASE_HELD naming the holder if another client has it."""
+    def check_lease(self, client: str, robot: str) -> None:
+        """Raise unless `client` may command `robot` now (LEASE_HELD names the holder)."""
+        if client in self.departed:
+            raise FleetError(ErrorCode.NOT_FOUND, f"client '{client}' has left (its session closed); its command "
+                             f"for robot '{robot}' arrived late and is dropped", "reconnect to command again")
         holder = self.holder(robot)
         if holder is not None and holder != client:
-            raise FleetError(ErrorCode.LEASE_HELD, f"robot '{robot}' is controlled by client '{holder}'",
-                             "wait for its lease to lapse or ask that client to release it")
-        lease = Lease(client, time.monotonic() + (ttl or self.config.lease_ttl_s))
-        self.leases[robot] = lease
+            lease = self.leases[robot]
+            idle = lease.idle_s - (lease.expires - time.monotonic())
+            raise FleetError(ErrorCode.LEASE_HELD, f"robot '{robot}' is controlled by client '{holder}' (last "
+                             f"command {idle:.2f} s ago; the lease lapses after {lease.idle_s:g} s idle)",
+                             "wait for it to lapse, ask that client to release it, or use an operator override")
+
+    def acquire(self, client: str, robot: str, ttl: float | None = None) -> Lease:
+        """Take or renew the lease (idle expiry `ttl`, default lease_idle_s); LEASE_HELD names the holder."""
+        self.check_lease(client, robot)
+        lease = self.leases.get(robot)
+        if lease is None or lease.client != client or ttl is not None:
+            lease = self.leases[robot] = Lease(client, ttl or self.config.lease_idle_s)
+        else:
+            lease.renew()
         return lease
 
     def release(self, client: str, robot: str) -> bool:
@@ -89,6 +105,25 @@ class SafetyEnvelope:
             del self.leases[r]
             self.manual.pop(r, None)
         return robots
+
+    def client_left(self, client: str) -> None:
+        """The client's session is gone: its commands still in flight are dropped (release its leases too)."""
+        self.departed.mark(client)
+        self._client_rates.forget(client)
+
+    def client_joined(self, client: str) -> None:
+        self.departed.clear(client)
+
+    def override(self, operator: str, robot: str, ttl: float | None = None) -> str | None:
+        """An operator takes the robot from whoever holds it (its manual command stops); returns the previous
+        holder."""
+        previous = self.holder(robot)
+        self.manual.pop(robot, None)
+        self.leases[robot] = Lease(operator, ttl or self.config.lease_idle_s)
+        return previous
+
+    def robots_of(self, client: str) -> list[str]:
+        return sorted(r for r in list(self.leases) if self.holder(r) == client)
 
     # ---- e-stop ---------------------------------------------------------------------------------------
 
@@ -111,15 +146,26 @@ class SafetyEnvelope:
 
     # ---- commands -------------------------------------------------------------------------------------
 
-    def check_rate(self, client: str) -> None:
-        now = time.monotonic()
-        q = self._rates.setdefault(client, deque())
-        while q and q[0] < now - 1.0:
-            q.popleft()
-        if len(q) >= self.config.max_command_rate_hz:
-            raise FleetError(ErrorCode.BUSY, f"client '{client}' sent more than {self.config.max_command_rate_hz:g}"
-                             " commands in the last second", "send fewer commands (the deadman allows renewal)")
-        q.append(now)
+    @property
+    def robot_rate_limit(self) -> float:
+        return self.config.robot_rate_hz or 4.0 * self.control_hz
+
+    def check_rate(self, client: str, robot: str, now: float) -> None:
+        """Reject a command past the per-robot or per-client rate (per sim second, `now` the sim time), naming
+        the limit and the current rate."""
+        n_robot, lim_robot = self._robot_rates.count(robot, now), self.robot_rate_limit
+        if n_robot + 1 > lim_robot:
+            raise FleetError(ErrorCode.BUSY, f"robot '{robot}': rate limit {lim_robot:g} commands per sim second "
+                             f"per robot (safety.robot_rate_hz) reached, current rate {n_robot}/s",
+                             f"one command per control tick ({self.control_hz:g} Hz) is enough; the deadman "
+                             f"holds a command for {self.config.deadman_s:g} s")
+        n_client, lim_client = self._client_rates.count(client, now), self.config.agent_rate_hz
+        if n_client + 1 > lim_client:
+            raise FleetError(ErrorCode.BUSY, f"client '{client}': rate limit {lim_client:g} commands per sim "
+                             f"second per client (safety.agent_rate_hz) reached, current rate {n_client}/s",
+                             "raise safety.agent_rate_hz for a larger fleet controller")
+        self._robot_rates.add(robot, now)
+        self._client_rates.add(client, now)
 
     def manual_command(self, client: str, robot: str, v: float, w: float, limits: tuple[float, float], now: float,
                        duration: float | None = None) -> tuple[float, float, bool, str]:
@@ -130,7 +176,8 @@ class SafetyEnvelope:
         if self.is_estopped(robot):
             raise FleetError(ErrorCode.ESTOPPED, f"robot '{robot}' is e-stopped: {self.stop_reason(robot)}",
                              "re-arm it explicitly before commanding it")
-        self.check_rate(client)
+        self.check_lease(client, robot)  # a refused client does not use up the robot's rate
+        self.check_rate(client, robot, now)
         self.acquire(client, robot)
         av, aw, clamped, reason = self.limit(v, w, limits)
         if clamped and self.config.strict:

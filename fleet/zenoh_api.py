@@ -25,8 +25,8 @@ from sim.types import ImuReading, LidarScan, OdometryReading
 
 ROOT = "fleetnav/@v1"
 ROBOT_STREAMS = ("odom", "scan", "imu", "pose", "state")
-COMMANDS = ("navigate", "cancel", "task_status", "spawn", "remove", "reset", "drive", "lease", "estop", "rearm",
-            "lockstep")
+COMMANDS = ("navigate", "cancel", "task_status", "spawn", "remove", "reset", "drive", "lease", "override", "estop",
+            "rearm", "lockstep")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,63}$")
 
 
@@ -62,6 +62,9 @@ class Keys:
 
     def agent_errors(self, agent: str) -> str:
         return f"{self.base}/agent/{agent}/errors"
+
+    def agent_heartbeat(self, agent: str) -> str:
+        return f"{self.base}/agent/{agent}/heartbeat"
 
     def alive_world(self) -> str:
         return f"{self.base}/alive/world"
@@ -174,6 +177,22 @@ class LeaseReq(Request):
     robot: str
     release: bool = False
     ttl_s: Finite | None = Field(None, gt=0, le=3600)
+
+
+class OverrideReq(Request):
+    """An operator takes a robot from whichever agent holds it (the `agent` field names the operator)."""
+
+    robot: str
+    reason: str = Field("operator override", max_length=500)
+    hold_s: Finite | None = Field(None, gt=0, le=3600, description="the operator's lease idle expiry")
+
+
+class Heartbeat(Msg):
+    """`agent/<id>/heartbeat`: the SDK's liveness beat; a world that misses 2 of them reports the agent."""
+
+    agent: str
+    period: Finite = Field(gt=0, le=60, description="seconds between beats")
+    seq: int = Field(ge=0)
 
 
 class EstopReq(Request):

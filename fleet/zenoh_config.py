@@ -58,6 +58,17 @@ class StreamsConfig(StrictModel):
     state: bool = True
 
 
+class AgentsConfig(StrictModel):
+    """How the world treats agents' leases and command rates (null: the FleetConfig's safety section)."""
+
+    lease_idle_s: float | None = Field(None, gt=0, le=3600, description="a lease lapses after this long idle, s")
+    robot_rate_hz: float | None = Field(None, gt=0, description="commands/s per robot; null: 4 × control_hz")
+    agent_rate_hz: float | None = Field(None, gt=0, description="commands/s per agent (fleet controllers)")
+
+    def safety_update(self) -> dict[str, float]:
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
 class ZenohConfig(StrictModel):
     mode: Literal["peer", "client", "router"] = "peer"
     listen: list[str] = Field(default_factory=list, description="endpoints to listen on, e.g. tcp/0.0.0.0:7447")
@@ -73,6 +84,13 @@ class ZenohConfig(StrictModel):
     ros2: Ros2Config = Field(default_factory=Ros2Config)
     streams: StreamsConfig = Field(default_factory=StreamsConfig)
     query_workers: int = Field(4, ge=1, le=64, description="threads that serve queries (they wait on the world)")
+    control_hz: float | None = Field(None, ge=1, le=200, description="the world's control rate (FleetConfig); "
+                                     "null: the fleet config's")
+    odom_hz: float | None = Field(None, gt=0, le=1000, description="publish odom at most this often (sim time); "
+                                  "null: every odometry reading (the robot model's rate)")
+    state_hz: float | None = Field(None, gt=0, le=200, description="publish pose/state at most this often "
+                                   "(sim time, ≤ control_hz: they follow control ticks); null: every control tick")
+    agents: AgentsConfig = Field(default_factory=AgentsConfig)
 
     @field_validator("listen", "connect")
     @classmethod
@@ -81,6 +99,17 @@ class ZenohConfig(StrictModel):
             if not _ENDPOINT.match(e):
                 raise ValueError(f"endpoint '{e}' is not <protocol>/<address>, e.g. tcp/127.0.0.1:7447")
         return v
+
+    def check_rates(self, control_hz: float) -> None:
+        """The rates against the world's control rate: the config cannot change a running world's."""
+        if self.control_hz is not None and abs(self.control_hz - control_hz) > 1e-9:
+            raise FleetError(ErrorCode.INVALID_CONFIG, f"zenoh config control_hz {self.control_hz:g} differs from "
+                             f"the world's {control_hz:g}", "build the FleetService with this control_hz "
+                             "(`fleetnav zenoh` does it for you)")
+        if self.state_hz is not None and self.state_hz > control_hz + 1e-9:
+            raise FleetError(ErrorCode.INVALID_CONFIG, f"state_hz {self.state_hz:g} exceeds control_hz "
+                             f"{control_hz:g}: pose and state are published after control ticks",
+                             f"use state_hz ≤ {control_hz:g} or raise control_hz")
 
     def to_zenoh(self) -> zenoh.Config:
         """The Zenoh session config: the base file (if any), then these settings on top."""

@@ -3,7 +3,9 @@
 It declares, under `fleetnav/@v1/<world>/` (fleet.zenoh_api.Keys): per-robot sensor and state publishers and the
 fleet-level state (Streams), the `cmd_vel` subscriber and the queryables (Commands), the events/errors outbox,
 the lock-step clock (Gate), and liveliness: a token for the world and one per robot, and a subscriber on the
-agents' tokens — an agent whose token disappears loses its leases and its robots stop at once.
+agents' tokens — an agent whose token disappears (its session closed, even right after a command) loses its
+leases, its robots stop at once and its commands still in flight are dropped. The agents' heartbeats go to the
+Watchdog, which reports a hung agent (`agent_unresponsive`) separately from the deadman that stops its robots.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from fleet.zenoh_bridge.commands import Commands
 from fleet.zenoh_bridge.gate import Gate
 from fleet.zenoh_bridge.outbox import Outbox
 from fleet.zenoh_bridge.streams import Streams
+from fleet.zenoh_bridge.watchdog import Watchdog
 from fleet.zenoh_config import ZenohConfig
 from sim.errors import ErrorCode, FleetError
 
@@ -56,12 +59,14 @@ class ZenohBridge:
         if not svc.threaded:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, "the Zenoh bridge needs the service in service mode",
                              "call service.start(...) first: agents act in wall time, batch stepping has no sim thread")
+        cfg.check_rates(svc.config.control_hz)
         self.session = s = zenoh.open(cfg.to_zenoh())
         self.outbox = Outbox(s)
+        self.watchdog = Watchdog(k, self._on_watchdog)
         self.gate = Gate(svc, lockstep=cfg.lockstep.enabled, timeout_s=cfg.lockstep.timeout_s,
                          on_tick=self._publish_clock, on_hung=self._hung)
         self.ros = RosKeys(cfg.ros2.prefix) if cfg.ros2.enabled else None
-        self.streams = Streams(s, k, cfg.streams, self.ros)
+        self.streams = Streams(s, k, cfg.streams, self.ros, odom_hz=cfg.odom_hz, state_hz=cfg.state_hz)
         self.commands = Commands(svc, self.gate, k, self._report, workers=cfg.query_workers,
                                  lockstep=cfg.lockstep.enabled, ros_client=cfg.ros2.client,
                                  on_register=lambda: self._on_snapshot(svc.snapshot))
@@ -74,6 +79,7 @@ class ZenohBridge:
             s.declare_queryable(k.robot_any("camera"), _direct(self.commands.on_query)),
             *[s.declare_queryable(k.fleet(t), _direct(self.commands.on_query)) for t in ("state", "map", "tasks")],
             s.liveliness().declare_subscriber(k.alive_agent("*"), _direct(self._on_agent), history=True),
+            s.declare_subscriber(k.agent_heartbeat("*"), _direct(self.watchdog.on_beat)),
             s.liveliness().declare_token(k.alive_world()),
         ]
         if self.ros is not None:
@@ -86,6 +92,7 @@ class ZenohBridge:
         if self.session is None:
             return
         self.gate.run(self.gate.agents.clear)  # a world waiting on lock-step agents stops waiting
+        self.watchdog.close()
         if self.service.threaded:
             self.service.call(self._uninstall)
         else:
@@ -105,6 +112,8 @@ class ZenohBridge:
 
     def _install(self) -> None:
         svc = self.service
+        if policy := self.config.agents.safety_update():
+            svc.safety.config = svc.safety.config.model_copy(update=policy)
         self._subscribe_world()
         svc.tick_listeners.append(self._on_snapshot)
         svc.control_gate = self.gate
@@ -165,17 +174,41 @@ class ZenohBridge:
         svc = self.service
         if sample.kind == zenoh.SampleKind.PUT:
             self.agents.add(agent)
-            self.gate.run(lambda: svc.events.publish(svc.world.time, "agent_joined", message=agent, agent=agent))
+
+            def joined() -> None:  # sim thread
+                svc.safety.client_joined(agent)
+                svc.events.publish(svc.world.time, "agent_joined", message=agent, agent=agent)
+
+            self.gate.run(joined)
             return
         self.agents.discard(agent)
+        self.watchdog.forget(agent)
 
-        def lost() -> None:  # sim thread
+        def lost() -> None:  # sim thread; a command of this agent still queued behind us is now dropped
+            svc.safety.client_left(agent)
             self.gate.unregister(agent)
             self.commands.forget_agent(agent)
             robots = svc.release_client(agent, "its liveliness token disappeared")  # stops them, client_lost
             svc.events.publish(svc.world.time, "agent_left", robots, f"agent '{agent}' is gone", agent=agent)
 
         self.gate.run(lost)
+
+    def _on_watchdog(self, agent: str, silent: float, period: float, responsive: bool) -> None:
+        svc = self.service
+
+        def report() -> None:  # sim thread: the robots it holds right now
+            robots = svc.safety.robots_of(agent)
+            if responsive:
+                svc.events.publish(svc.world.time, "agent_responsive", robots, f"agent '{agent}' beats again",
+                                   agent=agent)
+                return
+            listed = ", ".join(robots) if robots else "no robots"
+            svc.events.publish(svc.world.time, "agent_unresponsive", robots,
+                               f"agent '{agent}' missed its heartbeats: silent for {silent:.2f} s (period "
+                               f"{period:.2f} s); it holds {listed}, which the deadman stops",
+                               agent=agent, silent_s=round(silent, 3), heartbeat_period_s=period)
+
+        self.gate.run(report)
 
     def _publish_clock(self, tick: int, now: float) -> None:
         self._clock.put(dumps({"stamp": now, "tick": tick, "control_period": 1.0 / self.service.config.control_hz}))
@@ -210,4 +243,5 @@ class ZenohBridge:
     def stats(self) -> dict[str, Any]:
         return {"commands": self.commands.stats.to_dict(), "latency": self.gate.latency_stats(),
                 "published": self.streams.published, "gate_ticks": self.gate.ticks, "agents": sorted(self.agents),
+                "unresponsive_reports": self.watchdog.reported,
                 "lockstep_agents": sorted(self.gate.agents)}

@@ -30,6 +30,7 @@ from fleet.zenoh_api import (
     LockstepReq,
     Msg,
     NavigateReq,
+    OverrideReq,
     RearmReq,
     RobotReq,
     SpawnReq,
@@ -219,6 +220,7 @@ class Commands:
             "reset": (EmptyReq, self._reset),
             "drive": (DriveReq, lambda r: svc.drive(r.robot, r.v, r.w, client=r.agent, duration=r.duration)),
             "lease": (LeaseReq, self._lease),
+            "override": (OverrideReq, self._override),
             "estop": (EstopReq, lambda r: {"stopped": svc.estop(r.robot, r.reason)}),
             "rearm": (RearmReq, lambda r: {"changed": svc.rearm(r.robot)}),
             "lockstep": (LockstepReq, self._lockstep),
@@ -236,6 +238,20 @@ class Commands:
         if r.release:
             return {"robot": r.robot, "released": self.service.release_lease(r.agent, r.robot)}
         return self.service.acquire_lease(r.agent, r.robot, r.ttl_s)
+
+    def _override(self, r: OverrideReq) -> dict[str, Any]:
+        """Sim thread: the operator takes the lease whoever holds it; the robot stops; an event says who lost it."""
+        svc = self.service
+        svc.registry.get(r.robot)
+        previous = svc.safety.override(r.agent, r.robot, r.hold_s)
+        if svc.control.owner(r.robot) not in ("idle", "manual"):
+            svc.control.release(r.robot, f"operator override by '{r.agent}'")
+        svc.world.set_cmd_vel(r.robot, 0.0, 0.0)
+        svc.events.publish(svc.world.time, "lease_override", (r.robot,),
+                           f"operator '{r.agent}' took robot '{r.robot}' from "
+                           f"{repr(previous) if previous else 'no holder'}: {r.reason}",
+                           operator=r.agent, previous=previous, reason=r.reason)
+        return {"robot": r.robot, "holder": r.agent, "previous": previous}
 
     def _lockstep(self, r: LockstepReq) -> dict[str, Any]:
         """Register (or with robots=[] leave) lock-step; the agent takes the robots' leases."""

@@ -33,8 +33,11 @@ ZERO_COV = (0.0,) * 36
 
 
 class Streams:
-    def __init__(self, session: zenoh.Session, keys: Keys, streams: StreamsConfig, ros: RosKeys | None) -> None:
+    def __init__(self, session: zenoh.Session, keys: Keys, streams: StreamsConfig, ros: RosKeys | None, *,
+                 odom_hz: float | None = None, state_hz: float | None = None) -> None:
         self.session, self.keys, self.cfg, self.ros = session, keys, streams, ros
+        self.odom_hz, self.state_hz = odom_hz, state_hz
+        self._slots: dict[tuple[str, str], int] = {}  # (robot or "", stream) → last rate slot published
         self._pubs: dict[tuple[str, str], zenoh.Publisher] = {}
         self._fleet = self._declare(keys.fleet("state"), JSON)
         self.published = 0  # samples put (for the benchmark's publish-rate figure)
@@ -56,6 +59,18 @@ class Streams:
     def remove_robot(self, robot: str) -> None:
         for key in [k for k in self._pubs if k[0] == robot]:
             self._pubs.pop(key).undeclare()
+        for key in [k for k in self._slots if k[0] == robot]:
+            del self._slots[key]
+
+    def _due(self, robot: str, stream: str, stamp: float, hz: float | None) -> bool:
+        """Decimate to `hz` by sim time: at most one message per 1/hz slot (None: every message)."""
+        if hz is None:
+            return True
+        slot = int(stamp * hz + 1e-6)
+        if self._slots.get((robot, stream)) == slot:  # != rather than >: a reset world starts again at 0
+            return False
+        self._slots[(robot, stream)] = slot
+        return True
 
     def close(self) -> None:
         for p in self._pubs.values():
@@ -74,7 +89,8 @@ class Streams:
 
     def on_reading(self, r: object) -> None:
         if isinstance(r, OdometryReading):
-            self._put(r.robot, "odom", self.cfg.odom, r, encode_odom)
+            if self._due(r.robot, "odom", r.stamp, self.odom_hz):
+                self._put(r.robot, "odom", self.cfg.odom, r, encode_odom)
         elif isinstance(r, LidarScan):
             self._put(r.robot, "scan", self.cfg.scan, r, encode_scan)
         elif isinstance(r, ImuReading):
@@ -91,6 +107,8 @@ class Streams:
     # ---- after each control tick (sim thread) ------------------------------------------------------------------
 
     def on_snapshot(self, snap: FleetSnapshot, tick: int) -> None:
+        if not self._due("", "state", snap.time, self.state_hz):
+            return
         if matching(self._fleet):
             self._fleet.put(encode_fleet_state(snap, tick))
             self.published += 1

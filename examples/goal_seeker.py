@@ -24,6 +24,7 @@ import numpy as np
 
 from fleet.agent import Agent
 from fleet.zenoh_api import PoseStamped, Scan
+from sim.errors import FleetError
 
 
 @dataclass(frozen=True)
@@ -161,9 +162,10 @@ def run(connect: str, robot: str, goal: tuple[float, float], *, agent_id: str = 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--connect", required=True, help="the world's Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
+    ap.add_argument("--connect", default="tcp/127.0.0.1:7447", help="the world's Zenoh endpoint (default: "
+                    "`fleetnav zenoh` on this machine)")
     ap.add_argument("--robot", required=True)
-    ap.add_argument("--goal", nargs=2, type=float, required=True, metavar=("X", "Y"))
+    ap.add_argument("--goal", nargs=2, type=float, default=(5.0, 5.0), metavar=("X", "Y"))
     ap.add_argument("--agent-id", default="goal_seeker")
     ap.add_argument("--world", default=None, help="world key, if several worlds share the network")
     ap.add_argument("--lockstep", action="store_true", help="the world waits for this agent every tick")
@@ -171,8 +173,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--delay", type=float, default=0.0, help="seconds of simulated computation per step")
     ap.add_argument("--no-plan", action="store_true", help="seek the goal directly (no map, no route)")
     a = ap.parse_args(argv)
-    result = run(a.connect, a.robot, (a.goal[0], a.goal[1]), agent_id=a.agent_id, world=a.world,
-                 lockstep=a.lockstep, timeout=a.timeout, delay=a.delay, plan=not a.no_plan)
+    try:
+        result = run(a.connect, a.robot, (a.goal[0], a.goal[1]), agent_id=a.agent_id, world=a.world,
+                     lockstep=a.lockstep, timeout=a.timeout, delay=a.delay, plan=not a.no_plan)
+    except FleetError as exc:  # unknown robot, no world, ...: one clear line, not a traceback
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        return 2
     print(json.dumps(result), flush=True)
     return 0 if result["reached"] else 1
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from fleet.agent import Agent
 from fleet.zenoh_api import Scan
+from sim.errors import FleetError
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,8 @@ def run(connect: str, robot: str, *, duration: float = 30.0, agent_id: str = "wa
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--connect", required=True, help="the world's Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
+    ap.add_argument("--connect", default="tcp/127.0.0.1:7447", help="the world's Zenoh endpoint (default: "
+                    "`fleetnav zenoh` on this machine)")
     ap.add_argument("--robot", required=True)
     ap.add_argument("--duration", type=float, default=30.0, help="sim seconds to follow the wall")
     ap.add_argument("--side", choices=("left", "right"), default="right")
@@ -113,8 +115,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--timeout", type=float, default=120.0, help="wall seconds")
     ap.add_argument("--delay", type=float, default=0.0, help="seconds of simulated computation per step")
     a = ap.parse_args(argv)
-    result = run(a.connect, a.robot, duration=a.duration, agent_id=a.agent_id, world=a.world, lockstep=a.lockstep,
-                 timeout=a.timeout, delay=a.delay, params=FollowParams(side=a.side, distance=a.distance))
+    try:
+        result = run(a.connect, a.robot, duration=a.duration, agent_id=a.agent_id, world=a.world,
+                     lockstep=a.lockstep, timeout=a.timeout, delay=a.delay,
+                     params=FollowParams(side=a.side, distance=a.distance))
+    except FleetError as exc:  # unknown robot, no world, ...: one clear line, not a traceback
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        return 2
     print(json.dumps(result), flush=True)
     return 0
 

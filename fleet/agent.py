@@ -162,7 +162,7 @@ class Agent:
         self.close()
 
     def open(self) -> Agent:
-        self.session = zenoh.open(self.config.to_zenoh())
+        self.session = self._connect()
         try:
             self.keys = Keys(self._discover())
         except FleetError:
@@ -204,6 +204,19 @@ class Agent:
         for d in reversed(self._decls):
             d.undeclare()
         self.session.close()
+
+    def _connect(self) -> zenoh.Session:
+        """Open the session, retrying until `timeout` (a world started with `&` a moment ago may not listen yet)."""
+        deadline = time.monotonic() + self.timeout
+        while True:
+            try:
+                return zenoh.open(self.config.to_zenoh())
+            except zenoh.ZError as exc:
+                if time.monotonic() > deadline:
+                    where = ", ".join(self.config.connect) or "(peer discovery)"
+                    raise FleetError(ErrorCode.TIMEOUT, f"cannot reach a fleetnav world at {where} within "
+                                     f"{self.timeout:g} s: {exc}", "start one: fleetnav zenoh --spawn r1") from exc
+                time.sleep(0.2)
 
     def _discover(self) -> str:
         """The world's name from its liveliness token, retried until the link is up (or `timeout`)."""

@@ -3,9 +3,8 @@
 A lease is renewed by every command of its holder and lapses after `idle_s` without one; front doors that know
 when a client is gone (Zenoh liveliness, a closed session) release it at once and mark the client departed, so a
 command of that client still in flight cannot take the robot again under a dead id. Rates are counted over a
-sliding window of one sim second of accepted commands: per robot (one command per control tick, with room for
-jitter) and per client (a ceiling sized for a fleet controller driving every robot). Sim time, because agents
-pace themselves on it: a controller answering every control tick is within its limits at any clock speed.
+sliding one-second window of accepted commands (see RateWindow for which clock): per robot (one command per
+control tick, with room for jitter) and per client (a ceiling sized for a fleet controller driving every robot).
 """
 
 from __future__ import annotations
@@ -32,27 +31,28 @@ class Lease:
 
 
 class RateWindow:
-    """Accepted events in the last second (sim time; a world reset to an earlier time forgets the future), per
-    key."""
+    """Accepted events in the last second, per key. An event counts while it is less than a second old on both
+    clocks: sim time (so a controller answering every control tick is within its limits at any clock speed) and
+    wall time (so a world slower than real time, or paused, does not pile up an agent's wall-paced commands)."""
 
     def __init__(self) -> None:
-        self._q: dict[str, deque[float]] = {}
+        self._q: dict[str, deque[tuple[float, float]]] = {}
 
-    def count(self, key: str, now: float) -> int:
+    def count(self, key: str, sim_now: float, wall_now: float) -> int:
         q = self._q.get(key)
         if q is None:
             return 0
-        if q and q[-1] > now:  # time went back (reset): nothing counted is in this world's past
+        if q and q[-1][0] > sim_now:  # sim time went back (reset): nothing counted is in this world's past
             q.clear()
-        while q and q[0] <= now - 1.0:
+        while q and (q[0][0] <= sim_now - 1.0 or q[0][1] <= wall_now - 1.0):
             q.popleft()
         if not q:
             del self._q[key]
             return 0
         return len(q)
 
-    def add(self, key: str, now: float) -> None:
-        self._q.setdefault(key, deque()).append(now)
+    def add(self, key: str, sim_now: float, wall_now: float) -> None:
+        self._q.setdefault(key, deque()).append((sim_now, wall_now))
 
     def forget(self, key: str) -> None:
         self._q.pop(key, None)

@@ -4,7 +4,7 @@ Limits (clamp, or reject in strict mode, saying which), a deadman on manual comm
 e-stop per robot or for the fleet with explicit re-arm, a geofence, one controlling client per robot (a lease
 renewed by the holder's commands, lapsing after `lease_idle_s` of silence, released at once when a front door
 reports the client gone, taken by an operator override), and command rate limits per robot and per client
-(per sim second; see fleet.leases).
+(see fleet.leases.RateWindow).
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ class SafetyConfig(StrictModel):
     deadman_s: float = Field(0.5, gt=0, description="a manual velocity command expires after this (sim s)")
     lease_idle_s: float = Field(3.0, gt=0, le=3600,
                                 description="a lease lapses this long after its holder's last command (wall s)")
-    robot_rate_hz: float | None = Field(None, gt=0, description="accepted commands per sim second per robot; "
-                                        "null: 4 × the control rate")
-    agent_rate_hz: float = Field(5000.0, gt=0, description="accepted commands per sim second per client: a "
+    robot_rate_hz: float | None = Field(None, gt=0, description="accepted commands per second per robot "
+                                        "(sim and wall time); null: 4 × the control rate")
+    agent_rate_hz: float = Field(5000.0, gt=0, description="accepted commands per second per client: a "
                                  "ceiling sized for a fleet controller driving every robot")
     geofence: tuple[float, float, float, float] | None = Field(
         None, description="(xmin, ymin, xmax, ymax); null: the world's bounds")
@@ -151,21 +151,22 @@ class SafetyEnvelope:
         return self.config.robot_rate_hz or 4.0 * self.control_hz
 
     def check_rate(self, client: str, robot: str, now: float) -> None:
-        """Reject a command past the per-robot or per-client rate (per sim second, `now` the sim time), naming
-        the limit and the current rate."""
-        n_robot, lim_robot = self._robot_rates.count(robot, now), self.robot_rate_limit
+        """Reject a command past the per-robot or per-client rate (`now`: sim time; a command counts while it is
+        under a second old in sim and in wall time), naming the limit and the current rate."""
+        wall = time.monotonic()
+        n_robot, lim_robot = self._robot_rates.count(robot, now, wall), self.robot_rate_limit
         if n_robot + 1 > lim_robot:
-            raise FleetError(ErrorCode.BUSY, f"robot '{robot}': rate limit {lim_robot:g} commands per sim second "
-                             f"per robot (safety.robot_rate_hz) reached, current rate {n_robot}/s",
+            raise FleetError(ErrorCode.BUSY, f"robot '{robot}': rate limit {lim_robot:g} commands/s per robot "
+                             f"(safety.robot_rate_hz) reached, current rate {n_robot}/s",
                              f"one command per control tick ({self.control_hz:g} Hz) is enough; the deadman "
                              f"holds a command for {self.config.deadman_s:g} s")
-        n_client, lim_client = self._client_rates.count(client, now), self.config.agent_rate_hz
+        n_client, lim_client = self._client_rates.count(client, now, wall), self.config.agent_rate_hz
         if n_client + 1 > lim_client:
-            raise FleetError(ErrorCode.BUSY, f"client '{client}': rate limit {lim_client:g} commands per sim "
-                             f"second per client (safety.agent_rate_hz) reached, current rate {n_client}/s",
+            raise FleetError(ErrorCode.BUSY, f"client '{client}': rate limit {lim_client:g} commands/s "
+                             f"per client (safety.agent_rate_hz) reached, current rate {n_client}/s",
                              "raise safety.agent_rate_hz for a larger fleet controller")
-        self._robot_rates.add(robot, now)
-        self._client_rates.add(client, now)
+        self._robot_rates.add(robot, now, wall)
+        self._client_rates.add(client, now, wall)
 
     def manual_command(self, client: str, robot: str, v: float, w: float, limits: tuple[float, float], now: float,
                        duration: float | None = None) -> tuple[float, float, bool, str]:

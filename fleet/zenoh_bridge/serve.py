@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from fleet.zenoh_bridge.bridge import ZenohBridge
@@ -16,13 +17,16 @@ log = logging.getLogger("fleetnav.zenoh")
 
 
 def serve(service: FleetService, config: ZenohConfig, *, stop: threading.Event | None = None,
-          clock: str = "realtime", speed: float = 1.0) -> None:
-    """Start the service (if needed) and the bridge, and block until `stop` is set or Ctrl-C."""
+          clock: str = "realtime", speed: float = 1.0, on_ready: Callable[[list[str]], None] | None = None) -> None:
+    """Start the service (if needed) and the bridge, and block until `stop` is set or Ctrl-C; `on_ready` gets
+    the endpoints once agents can connect."""
     if not service.threaded:
         service.start(clock, speed)
     stop = stop or threading.Event()
     with ZenohBridge(service, config) as bridge:
         log.info("serving %s/** on %s", bridge.keys.base, ", ".join(config.listen) or "(peer discovery)")
+        if on_ready is not None:
+            on_ready(list(config.listen))
         try:
             while not stop.wait(0.5):
                 pass

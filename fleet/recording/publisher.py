@@ -66,6 +66,10 @@ class FoxglovePublisher:
         self._unsubscribe = svc.events.subscribe(self._on_event)
         svc.tick_listeners.append(self.on_tick)
 
+    def resend_map(self) -> None:
+        """Log /map again at the next tick (a viewer subscribed late: the map is static, sent once)."""
+        self._map_dirty = True
+
     def close(self) -> None:
         self._unsubscribe()
         if self.on_tick in self.svc.tick_listeners:

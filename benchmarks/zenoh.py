@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/zenoh.py            # 100 robots, 10 agents × 10 robots at 10 Hz, 20 s windows
     .venv/bin/python benchmarks/zenoh.py --quick    # 20 robots, 2 agents, 5 s windows
+    .venv/bin/python benchmarks/zenoh.py --lifecycle [--quick]  # agents' leases, rates, hung agents (issue 19)
 
 Two windows on the same world, one after the other, with the same command load:
   baseline  the commands enter in-process (FleetService.submit → safety envelope), no Zenoh at all;
@@ -258,6 +259,12 @@ def over_zenoh(svc: Any, names: list[str], per_agent: int, duration: float, proc
 
 
 def main() -> None:
+    if "--lifecycle" in sys.argv:  # issue 19: leases, rate limits, hung agents (benchmarks/zenoh_agents.py)
+        sys.argv.remove("--lifecycle")
+        import runpy
+
+        runpy.run_path(str(ROOT / "benchmarks" / "zenoh_agents.py"), run_name="__main__")
+        return
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--robots", default=None, help="(roles) comma-separated robot names; (main) how many robots")

@@ -25,8 +25,9 @@ def quick(ep: str, robot: str, trials: int) -> None:
         link = agent.robot(robot, streams=())
         link.drive_sync(0.1, 0.0)
         link.drive(0.1, 0.0)  # in flight while the session closes
+        closing_at = time.time()
         agent.close()
-        out(trial=i, agent=f"quick{i}", closed_at=time.time())
+        out(trial=i, agent=f"quick{i}", closing_at=closing_at, closed_at=time.time())
         if i + 1 < trials:
             sys.stdin.readline()
 
@@ -57,13 +58,11 @@ def fleet(ep: str, n: int, hz: float, seconds: float) -> None:
         links = [agent.robot(f"f{i}", streams=()) for i in range(n)]
         sent, period = 0, 1.0 / hz
         start = time.monotonic()
-        next_t = start
-        while next_t < start + seconds:
+        for tick in range(round(hz * seconds)):
+            time.sleep(max(0.0, start + tick * period - time.monotonic()))
             for k, link in enumerate(links):
                 link.drive(0.1, 0.05 * (k % 3 - 1))
                 sent += 1
-            next_t += period
-            time.sleep(max(0.0, next_t - time.monotonic()))
         time.sleep(0.5)  # rejections are reported asynchronously
         out(sent=sent, errors=[e["message"] for e in agent.errors][:20], n_errors=len(agent.errors),
             wall_s=time.monotonic() - start)

@@ -14,7 +14,7 @@ import pytest
 from fleet.agent import Agent
 from fleet.zenoh_config import TlsConfig, ZenohConfig, load_zenoh_config
 from sim.errors import ErrorCode, FleetError
-from tests.fleet.zenoh_util import ROOT, free_port, served
+from tests.fleet.zenoh_util import ROOT, free_port, served, wait_until
 
 pytestmark = pytest.mark.skipif(shutil.which("openssl") is None, reason="needs the openssl command line")
 
@@ -27,6 +27,7 @@ def _pki(d: Path) -> None:
     run("req", "-x509", *ec, "-keyout", "ca-key.pem", "-out", "ca.pem", "-days", "1", "-subj", "/CN=test CA")
     for name, cn, san in (("world", "localhost", "DNS:localhost,IP:127.0.0.1"),
                           ("agent", "agent.fleetnav.local", "DNS:agent.fleetnav.local"),
+                          ("operator", "operator.fleetnav.local", "DNS:operator.fleetnav.local"),
                           ("observer", "observer.fleetnav.local", "DNS:observer.fleetnav.local")):
         run("req", *ec, "-keyout", f"{name}-key.pem", "-out", f"{name}.csr", "-subj", f"/CN={cn}")
         (d / f"{name}.ext").write_text(f"subjectAltName={san}\nbasicConstraints=CA:FALSE\n"
@@ -58,6 +59,14 @@ def test_the_locked_down_config_admits_agents_by_certificate_and_role(tmp_path):
             assert pilot.fleet_state()["names"] == ["r1"]
             assert pilot.robot("r1").drive_sync(0.2, 0.0)["applied_v"] == 0.2
             assert pilot.robot("r1").wait("pose").stamp >= 0
+            wait_until(lambda: "pilot" in bridge.watchdog.beats, timeout=5, what="the pilot's heartbeat")
+            with pytest.raises(FleetError) as e:  # agents may not take robots from each other
+                pilot.query(bridge.keys.command("override"), {"robot": "r1", "agent": "pilot"}, timeout=1.0)
+            assert e.value.code is ErrorCode.TIMEOUT
+            with Agent("ops", config=_agent_config(tmp_path, port, "operator"), timeout=5) as ops:
+                assert ops.override("r1", "test")["previous"] == "pilot"
+                assert svc.safety.holder("r1") == "ops"
+            wait_until(lambda: svc.safety.holder("r1") is None, what="the operator's lease released as it left")
             pilot.request("lease", robot="r1", release=True)
         with Agent("watcher", config=_agent_config(tmp_path, port, "observer"), timeout=2) as watcher:
             assert watcher.fleet_state()["names"] == ["r1"]  # reading is allowed

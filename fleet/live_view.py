@@ -58,6 +58,10 @@ class LiveView:
         self._server = foxglove.start_server(name=self.name, host=self.host, port=self.port, context=context,
                                              server_listener=_Latch(self))
 
+    def adopt(self, publisher: FoxglovePublisher) -> None:
+        """Serving a recorder's context (`open`): its publisher re-sends /map to late viewers."""
+        self._publisher = publisher
+
     def attach(self, svc: FleetService, mission_yaml: str = "", seed: int = 0) -> LiveView:
         """Serve a service on its own context (publishing happens on the sim thread, after each control tick).
         With the extra arguments it is a Recorder, for runs that show live but record nothing."""
@@ -111,10 +115,10 @@ class LiveView:
         if self._unsubscribe is not None:
             self._unsubscribe()
             self._unsubscribe = None
-        if self._publisher is not None:
+        if self._publisher is not None and self._robots is not None:  # attach(): the publisher is ours
             self._publisher.close()
             counts = dict(sorted(self._publisher.counts.items()))
-            self._publisher = None
+        self._publisher, self._robots = None, None
         if self._server is not None:
             self._server.stop()
             self._server = None

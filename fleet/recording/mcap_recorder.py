@@ -42,6 +42,8 @@ class McapRecorder:
         if self._live is not None:
             self._live.open(ctx)
         self._publisher = FoxglovePublisher(svc, ctx, **self._opts)  # type: ignore[arg-type]
+        if self._live is not None:
+            self._live.adopt(self._publisher)  # a late viewer gets /map again
 
     def close(self) -> dict[str, int]:
         counts: dict[str, int] = {}

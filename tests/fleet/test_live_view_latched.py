@@ -47,3 +47,27 @@ def test_a_late_viewer_receives_the_map_and_the_robot_descriptions():
         if view is not None:
             view.close()
         svc.close()
+
+
+def test_a_late_viewer_of_a_recorded_run_receives_the_map(tmp_path):
+    from fleet.recording.mcap_recorder import McapRecorder
+
+    svc = FleetService(FleetConfig(world="robot_arena", seed=1))
+    view = LiveView(port=free_port())
+    rec = McapRecorder(tmp_path / "run.mcap", live=view)
+    try:
+        rec.attach(svc, "", 1)
+        svc.start("realtime", 2.0)
+        wait_until(lambda: svc.snapshot.time > 0.5, what="the world running")
+        viewer = Viewer("127.0.0.1", int(view.url.rsplit(":", 1)[1]))
+        try:
+            deadline = time.monotonic() + 5.0
+            while "/map" not in viewer.channels and time.monotonic() < deadline:
+                viewer.pump(time.monotonic() + 0.2)
+            viewer.subscribe("/map")
+            assert viewer.wait_for("/map"), "no /map for the late viewer"
+        finally:
+            viewer.close()
+    finally:
+        svc.close()
+        rec.close()

@@ -112,8 +112,7 @@ class ZenohBridge:
 
     def _install(self) -> None:
         svc = self.service
-        if policy := self.config.agents.safety_update():
-            svc.safety.config = svc.safety.config.model_copy(update=policy)
+        self._apply_policy()
         self._subscribe_world()
         svc.tick_listeners.append(self._on_snapshot)
         svc.control_gate = self.gate
@@ -123,6 +122,7 @@ class ZenohBridge:
 
     def _uninstall(self) -> None:
         svc = self.service
+        svc.safety.config = svc.config.safety  # the agents' policy was this bridge's
         for unsub in self._unsubscribe:
             unsub()
         self._unsubscribe.clear()
@@ -130,6 +130,12 @@ class ZenohBridge:
             svc.tick_listeners.remove(self._on_snapshot)
         if svc.control_gate is self.gate:
             svc.control_gate = None
+
+    def _apply_policy(self) -> None:
+        """Sim thread: the config's lease and rate policy over the fleet's (again after a reset rebuilds the
+        safety envelope)."""
+        if policy := self.config.agents.safety_update():
+            self.service.safety.config = self.service.config.safety.model_copy(update=policy)
 
     def _subscribe_world(self) -> None:
         st = self.config.streams
@@ -146,6 +152,7 @@ class ZenohBridge:
         self.outbox.put(self.keys.fleet("events"), encode_event(ev))
         if ev.kind in ("reset", "world_loaded"):  # on the sim thread, the new world already built
             self.gate.forget_ticks()
+            self._apply_policy()
             for name in list(self._robot_tokens):
                 self._robot_down(name)
             self._subscribe_world()

@@ -157,3 +157,12 @@ def test_two_agents_racing_for_one_robot_never_both_hold_it_and_every_refusal_na
                 held_from = None
     releases = sum(1 for log in logs.values() for e in log if e.get("release"))
     assert releases >= 4  # the lease changed hands several times
+
+
+def test_the_zenoh_configs_agent_policy_holds_across_a_reset_and_ends_with_the_bridge():
+    with served("empty", agents=AgentsConfig(robot_rate_hz=7, lease_idle_s=1.5)) as (svc, bridge, _):
+        assert (svc.safety.robot_rate_limit, svc.safety.config.lease_idle_s) == (7, 1.5)
+        svc.reset()
+        wait_until(lambda: svc.safety.robot_rate_limit == 7, timeout=5, what="the policy after the reset")
+        bridge.close()
+        assert (svc.safety.robot_rate_limit, svc.safety.config.lease_idle_s) == (40, 3.0)

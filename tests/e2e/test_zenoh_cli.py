@@ -70,8 +70,14 @@ def diffs(xs: list[float]) -> list[float]:
     (["--config", "nope"], "no Zenoh config 'nope'"),
     (["--state-hz", "50"], "state_hz 50 exceeds control_hz 10"),
 ])
-def test_bad_arguments_exit_2_with_one_line(tmp_path: Path, args: list[str], says: str):
-    res = subprocess.run(cli("zenoh", *args), cwd=tmp_path, env=env(), capture_output=True, text=True, timeout=60)
-    assert res.returncode == 2
+def test_bad_arguments_exit_2_with_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, args: list[str],
+                                            says: str):
+    from typer.testing import CliRunner
+
+    from fleetnav.cli import app
+
+    monkeypatch.chdir(tmp_path)  # any folder
+    res = CliRunner().invoke(app, ["zenoh", *args])
+    assert res.exit_code == 2
     lines = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1 and says in lines[0], res.stderr[-1000:]

@@ -38,9 +38,14 @@ class DiffDriveParams:
     odometry_topic: str | None = None
 
 
+def _is_gz(plugin: UrdfPlugin) -> bool:
+    """Gazebo Sim / Ignition's DiffDrive system, by file name (any gz/ign version) or class name."""
+    return (plugin.filename in GZ_DIFF_DRIVE or plugin.name in GZ_DIFF_DRIVE
+            or "diff-drive-system" in plugin.filename or plugin.name.endswith("systems::DiffDrive"))
+
+
 def is_diff_drive(plugin: UrdfPlugin) -> bool:
-    fn = plugin.filename
-    return fn in CLASSIC_DIFF_DRIVE or fn in GZ_DIFF_DRIVE or fn.endswith("gazebo_ros_diff_drive.so")
+    return plugin.filename in CLASSIC_DIFF_DRIVE or plugin.filename.endswith("gazebo_ros_diff_drive.so") or _is_gz(plugin)
 
 
 def _num(plugin: UrdfPlugin, source: str, *keys: str) -> float | None:
@@ -69,7 +74,7 @@ def _joints(plugin: UrdfPlugin, *keys: str) -> tuple[str, ...]:
 
 
 def diff_drive_params(plugin: UrdfPlugin, source: str) -> DiffDriveParams:
-    gz = plugin.filename in GZ_DIFF_DRIVE
+    gz = _is_gz(plugin)
     diameter = _num(plugin, source, "wheel_diameter", "wheelDiameter")
     radius = _num(plugin, source, "wheel_radius") if gz else (diameter / 2 if diameter is not None else None)
     return DiffDriveParams(

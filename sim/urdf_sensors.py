@@ -61,6 +61,7 @@ def lidar_spec(s: UrdfSensor | None, mount: Pose3D, r: SensorReport) -> LidarSpe
     else:
         span = s.max_angle - s.min_angle
         fov = min(360.0, math.degrees(span * samples / max(1, samples - 1)))
+        fov = 360.0 if fov > 359.99 else fov  # a full circle written in rounded radians
         start = -180.0 if fov >= 360.0 - 1e-6 else -fov / 2
         if abs(math.degrees(s.min_angle) - start) > 0.5 and fov < 360.0 - 1e-6:
             r.warnings.append(f"{what}: scan from {math.degrees(s.min_angle):.1f}° is simulated centred on x "

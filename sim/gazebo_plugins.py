@@ -45,7 +45,8 @@ def _is_gz(plugin: UrdfPlugin) -> bool:
 
 
 def is_diff_drive(plugin: UrdfPlugin) -> bool:
-    return plugin.filename in CLASSIC_DIFF_DRIVE or plugin.filename.endswith("gazebo_ros_diff_drive.so") or _is_gz(plugin)
+    fn = plugin.filename
+    return fn in CLASSIC_DIFF_DRIVE or fn.endswith("gazebo_ros_diff_drive.so") or _is_gz(plugin)
 
 
 def _num(plugin: UrdfPlugin, source: str, *keys: str) -> float | None:

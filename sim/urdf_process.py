@@ -41,10 +41,10 @@ def loadable_urdf_text(text: str, base_dir: Path, root: str, root_in_base: Pose3
         if link.find("inertial") is None:  # Gazebo lumps such frames away; PyBullet would make them 1 kg
             _token_inertial(link)
     for gz in robot.findall("gazebo"):
-        link = links.get(gz.get("reference"))
+        target = links.get(gz.get("reference"))
         mu = gz.findtext("mu1")
-        if link is not None and mu and link.find("contact") is None:
-            ET.SubElement(ET.SubElement(link, "contact"), "lateral_friction", value=mu.strip())
+        if target is not None and mu and target.find("contact") is None:
+            ET.SubElement(ET.SubElement(target, "contact"), "lateral_friction", value=mu.strip())
     base = ET.Element("link", name=BASE)
     _token_inertial(base)
     joint = ET.Element("joint", name=f"{BASE}_joint", type="fixed")

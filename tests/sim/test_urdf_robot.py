@@ -87,7 +87,8 @@ def test_missing_package_and_bad_descriptions_are_clear_errors(monkeypatch, tmp_
     monkeypatch.setenv("FLEETNAV_PACKAGE_PATH", str(tmp_path))
     with pytest.raises(FleetError, match="cannot find package 'tb3_like_description'"):
         load_robot_model(TB3)
-    no_drive = '<robot name="r"><link name="a"><collision><geometry><box size="1 1 1"/></geometry></collision></link></robot>'
+    no_drive = ('<robot name="r"><link name="a"><collision><geometry><box size="1 1 1"/></geometry></collision>'
+                "</link></robot>")
     with pytest.raises(FleetError, match="no differential drive"):
         load_robot_model(no_drive)
     bad_joint = COURSE.read_text().replace("<left_joint>left_wheel_joint</left_joint>", "<left_joint>nope</left_joint>")

@@ -15,6 +15,7 @@ from fleet.grading.rubric import RubricReport
 from sim.types import Box, Cylinder, Sphere
 from sim.urdf_model import UrdfRobot, UrdfSensor
 from sim.urdf_parser import parse_urdf
+from sim.urdf_robot import read_description
 
 REL_TOL = 0.05  # dimensions within 5 %
 MASS = 5.0
@@ -34,7 +35,9 @@ def _sensor(robot: UrdfRobot, *types: str) -> UrdfSensor | None:
 
 
 def check_robot(path: str | Path) -> RubricReport:
-    return grade_robot(parse_urdf(Path(path)), str(path))
+    """Grade a .urdf or .urdf.xacro file (xacro is expanded first)."""
+    text, name, base_dir = read_description(Path(path))
+    return grade_robot(parse_urdf(text, name=name, base_dir=base_dir), str(path))
 
 
 def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:

@@ -20,7 +20,7 @@ from xml.etree import ElementTree as ET
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-COURSE_URDF = REPO / "tests" / "sim" / "data" / "robots" / "course_robot.urdf"
+COURSE_URDF = REPO / "configs" / "robots" / "course_robot.urdf"
 
 USER_MISSION = """\
 name: my_robot_mission

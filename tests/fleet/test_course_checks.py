@@ -24,6 +24,11 @@ def test_shipped_world_and_robot_pass_every_item():
     assert w.title.endswith("(robot_arena.world)") and r.title.endswith("(diffbot.urdf)")  # names the graded file
 
 
+def test_course_robot_written_from_the_assignment_passes():
+    report = check_robot(ROOT / "configs/robots/course_robot.urdf")
+    assert report.failed_keys() == [] and report.earned == 45
+
+
 def mutate(src: Path, tmp: Path, fn: Callable[[ET.Element], None]) -> Path:
     tree = ET.parse(src)
     fn(tree.getroot())

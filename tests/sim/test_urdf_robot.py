@@ -16,7 +16,7 @@ from sim.robot_load import load_robot_model
 from sim.robot_spec import load_robot_spec
 
 DATA = Path(__file__).parent / "data"
-COURSE = DATA / "robots" / "course_robot.urdf"
+COURSE = shipped("robots", "course_robot.urdf")
 JACKAL = DATA / "robots" / "jackal_like.urdf"
 TB3 = DATA / "packages" / "tb3_like_description" / "urdf" / "tb3_like.urdf.xacro"
 

@@ -18,13 +18,10 @@ ALL_BUT_GROUND = 0xFFFF & ~GROUND_GROUP
 
 
 @cache
-def _robot(path: str) -> UrdfRobot:
-    return parse_urdf(path)
-
-
 def proxy_shapes(path: str) -> list[tuple[Any, Pose3D]]:
-    """(geometry, pose in base_link) of every collision shape; the root of `path` is base_link."""
-    robot = _robot(path)
+    """(geometry, pose in base_link) of every collision shape; the root of `path` is base_link. The file is
+    named by its content's hash (sim.urdf_process), so caching by path is safe."""
+    robot: UrdfRobot = parse_urdf(path)
     return [(c.geometry, pose.compose(c.origin)) for link, pose in robot.link_poses().items()
             for c in robot.links[link].collisions]
 

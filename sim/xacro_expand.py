@@ -29,16 +29,19 @@ def expand_xacro(source: str | Path, mappings: dict[str, str] | None = None,
     except ModuleNotFoundError as exc:  # a declared dependency; only a broken install lacks it
         raise FleetError(ErrorCode.NOT_FOUND, "the 'xacro' package is not installed", "pip install xacro") from exc
     search = package_path if package_path is not None else package_search_path()
+    is_text = isinstance(source, str) and source.lstrip().startswith("<")
+    name = "<string>" if is_text else str(source)
+
+    missing: list[FleetError] = []  # xacro wraps what `find` raises: keep ours to re-raise it unwrapped
 
     def find(pkg: str) -> str:
         found = find_package(pkg, search)
         if found is None:
-            raise FleetError(ErrorCode.NOT_FOUND, f"xacro $(find {pkg}): no package '{pkg}'",
-                             f"searched: {', '.join(map(str, search)) or 'nothing'}; {HINT}")
+            missing.append(FleetError(ErrorCode.NOT_FOUND, f"{name}: xacro $(find {pkg}): no package '{pkg}'",
+                                      f"searched: {', '.join(map(str, search)) or 'nothing'}; {HINT}"))
+            raise missing[-1]
         return str(found)
 
-    is_text = isinstance(source, str) and source.lstrip().startswith("<")
-    name = "<string>" if is_text else str(source)
     with _LOCK:
         saved = substitution_args._eval_find
         substitution_args._eval_find = find
@@ -56,6 +59,8 @@ def expand_xacro(source: str | Path, mappings: dict[str, str] | None = None,
         except FleetError:
             raise
         except Exception as exc:  # xacro raises XacroException, ExpatError, NameError ... for bad input
+            if missing:
+                raise missing[-1] from exc
             raise FleetError(ErrorCode.INVALID_CONFIG, f"{name}: xacro failed: {exc}",
                              "run `xacro FILE` to see the full error") from exc
         finally:

@@ -5,6 +5,7 @@ robots drive in PyBullet as their geometry says."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -85,8 +86,14 @@ def test_jackal_like_gz_sim_plugin_four_wheels_and_sensor_pose():
 
 def test_missing_package_and_bad_descriptions_are_clear_errors(monkeypatch, tmp_path):
     monkeypatch.setenv("FLEETNAV_PACKAGE_PATH", str(tmp_path))
-    with pytest.raises(FleetError, match="cannot find package 'tb3_like_description'"):
+    with pytest.raises(FleetError, match=r"\$\(find tb3_like_description\): no package 'tb3_like_description'"):
         load_robot_model(TB3)
+    mesh = TB3.parent.parent / "meshes" / "lds.stl"
+    urdf = COURSE.read_text().replace('<link name="mast">', '<link name="mast"><visual><geometry><mesh '
+                                      'filename="package://nopkg/meshes/lds.stl"/></geometry></visual>')
+    with pytest.raises(FleetError, match=re.escape("cannot find package 'nopkg' of 'package://nopkg/meshes/lds.stl'")):
+        load_robot_model(urdf)
+    assert mesh.is_file()
     no_drive = ('<robot name="r"><link name="a"><collision><geometry><box size="1 1 1"/></geometry></collision>'
                 "</link></robot>")
     with pytest.raises(FleetError, match="no differential drive"):

@@ -41,3 +41,17 @@ def test_robot_files_resolve_relative_to_the_referencing_file(tmp_path: Path):
     with pytest.raises(FleetError) as err:
         robot_file("nobot")
     assert "course_robot" in err.value.hint and "diffbot" in err.value.hint
+
+
+def test_challenge_robot_is_relative_to_the_challenge_file(tmp_path: Path, monkeypatch):
+    from fleet.grading.challenge import load_challenge
+
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "mine.urdf").write_text(shipped("robots", "course_robot.urdf").read_text())
+    (tmp_path / "c.yaml").write_text("name: c1\nworld: robot_arena\nstart: spawn_start\ngoal: goal_marker\n"
+                                     "time_limit: 5\nrobot: robots/mine.urdf\n")
+    monkeypatch.chdir(tmp_path.parent)  # not the challenge's folder: the file's folder decides
+    assert load_challenge(tmp_path / "c.yaml").robot == str((tmp_path / "robots" / "mine.urdf").resolve())
+    (tmp_path / "c.yaml").write_text((tmp_path / "c.yaml").read_text().replace("mine.urdf", "gone.urdf"))
+    with pytest.raises(FleetError, match=r"robots/gone\.urdf' does not exist"):
+        load_challenge(tmp_path / "c.yaml")

@@ -4,7 +4,8 @@ turned into a RobotSpec whose `description` is the URDF PyBullet loads.
 Recipe: read (expand xacro) → parse → find the drive (the diff-drive plugin, else wheel joints by name) →
 place fleetnav's base_link on the floor under the axle centre → sensors and limits → write the URDF to load.
 Everything the description does not say and fleetnav needs is defaulted and listed in `warnings`; nothing
-is silently guessed.
+is silently guessed. The spec's chassis, caster and mast sections summarise the description for code that
+reads them (masses add up to the file's total); what is simulated is the description itself.
 """
 
 from __future__ import annotations
@@ -109,16 +110,18 @@ def load_urdf_robot(source: str | Path, package_path: list[Path] | None = None) 
     extent = _extent(robot, in_base, warnings)
     chassis = _chassis(robot, in_base, {j.child for j in left + right}, extent)
     total = robot.total_mass()
-    n_wheels = len(left) + len(right)
+    wheel_links = {j.child for j in left + right}
+    caster = _caster(robot, in_base, wheel_links, chassis)
     mast_x = lidar.mount[0] if lidar.mount is not None else 0.0
     spec = RobotSpec(
         name=robot.name or Path(name).stem,
         chassis=ChassisSpec(size=chassis[0], ground_clearance=max(0.0, chassis[1]),
-                            mass=max(1e-3, total - n_wheels * wheel_mass)),
+                            # The rest of the description's mass, so total_mass is the file's total.
+                            mass=max(1e-3, total - 2 * max(1e-3, wheel_mass) - caster.mass - 1e-3)),
         wheels=WheelSpec(radius=radius, width=min(_wheel_width(robot, left[0]), 0.99 * separation),
                          separation=separation, mass=max(1e-3, wheel_mass), max_torque=_torque(drive, left, warnings),
                          left_joints=tuple(j.name for j in left), right_joints=tuple(j.name for j in right)),
-        caster=CasterSpec(radius=0.01, x_offset=0.0, mass=1e-3),
+        caster=caster,
         mast=MastSpec(height=max(1e-3, (lidar.mount[2] if lidar.mount else 0.0) - chassis[1] - chassis[0][2]),
                       x_offset=mast_x, mass=1e-3),
         limits=_limits(drive, left, radius, separation, warnings),
@@ -126,6 +129,21 @@ def load_urdf_robot(source: str | Path, package_path: list[Path] | None = None) 
     )
     description = write_loadable_urdf(text, base_dir, robot.root, root_in_base, package_path)
     return LoadedRobot(spec.model_copy(update={"description": str(description)}), tuple(warnings), name)
+
+
+def _caster(robot: UrdfRobot, in_base: dict[str, Pose3D], wheels: set[str],
+            chassis: tuple[tuple[float, float, float], float]) -> CasterSpec:
+    """The spec's caster summary: the first non-wheel link named *caster* or holding a sphere collision."""
+    for link in robot.links.values():
+        spheres = [c for c in link.collisions if isinstance(c.geometry, Sphere)]
+        if link.name in wheels or not (spheres or "caster" in link.name.lower()):
+            continue
+        radius = spheres[0].geometry.radius if spheres and isinstance(spheres[0].geometry, Sphere) else 0.01
+        half = chassis[0][0] / 2
+        x = min(half, max(-half, in_base[link.name].x))  # the spec keeps it under the chassis
+        return CasterSpec(radius=radius, x_offset=x, mass=link.inertial.mass if link.inertial and
+                          link.inertial.mass > 0 else 1e-3)
+    return CasterSpec(radius=0.01, x_offset=0.0, mass=1e-3)  # none (4-wheel bases): a token, never simulated
 
 
 def _drive(robot: UrdfRobot, warnings: list[str]) -> DiffDriveParams:

@@ -104,7 +104,7 @@ class ServiceCore:
         """A robot model (name, .yaml/.urdf/.xacro file or URDF text) and what its description left out."""
         key = model or self.config.robot_model
         if key not in self._specs:
-            self._specs[key] = robot_model(key)
+            self._specs[key] = robot_model(key, package_path=self.config.package_path)
         return self._specs[key]
 
     # ---- threading: one sim thread, a command queue, futures -------------------------------------------

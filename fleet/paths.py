@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from sim.errors import ErrorCode, FleetError
+from sim.resource_path import package_search_path
 from sim.resources import shipped_root
 from sim.robot_load import is_robot_text, load_robot_model
 from sim.urdf_robot import LoadedRobot
@@ -55,9 +56,11 @@ def robot_file(name_or_path: str, base: Path | None = None) -> Path:
                      f"known models: {', '.join(known)}; or give a .yaml, .urdf or .urdf.xacro file")
 
 
-def robot_model(model: str, base: Path | None = None) -> LoadedRobot:
-    """A robot model by name, file (relative to `base` first) or URDF/xacro text, with its load warnings."""
-    return load_robot_model(model if is_robot_text(model) else robot_file(model, base))
+def robot_model(model: str, base: Path | None = None, package_path: list[str] | None = None) -> LoadedRobot:
+    """A robot model by name, file (relative to `base` first) or URDF/xacro text, with its load warnings;
+    `package_path` folders are searched for package:// and $(find) before the environment's."""
+    search = package_search_path(list(package_path or []))
+    return load_robot_model(model if is_robot_text(model) else robot_file(model, base), search)
 
 
 class Workspace:

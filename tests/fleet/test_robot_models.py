@@ -55,3 +55,17 @@ def test_challenge_robot_is_relative_to_the_challenge_file(tmp_path: Path, monke
     (tmp_path / "c.yaml").write_text((tmp_path / "c.yaml").read_text().replace("mine.urdf", "gone.urdf"))
     with pytest.raises(FleetError, match=r"robots/gone\.urdf' does not exist"):
         load_challenge(tmp_path / "c.yaml")
+
+
+def test_package_path_from_the_config(monkeypatch):
+    monkeypatch.delenv("FLEETNAV_PACKAGE_PATH", raising=False)
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    data = Path(__file__).resolve().parents[1] / "sim" / "data"
+    jackal = str(data / "robots" / "jackal_like.urdf")
+    with pytest.raises(FleetError, match="cannot find package 'jackal_like_description'"):
+        robot_model(jackal)
+    svc = FleetService(FleetConfig(world="empty", package_path=[str(data / "packages")]))
+    try:
+        assert svc.robot_model(jackal).spec.wheels.left_joints == ("front_left_wheel", "rear_left_wheel")
+    finally:
+        svc.close()

@@ -25,7 +25,11 @@ class FleetConfig(StrictModel):
     control_hz: float = Field(10.0, ge=1, le=200, description="rate of navigators, behaviours, avoidance")
     seed: int = 0
     fidelity: Literal["kinematic", "dynamic"] = "kinematic"
-    robot_model: str = Field("diffbot", description="a robot config in configs/robots or a path to one")
+    robot_model: str = Field("diffbot", description="a shipped robot model name, a .yaml/.urdf/.urdf.xacro file, "
+                             "or URDF/xacro text")
+    package_path: list[str] = Field(default_factory=list, description="folders holding ROS packages for a robot "
+                                    "description's package:// and $(find), searched before FLEETNAV_PACKAGE_PATH, "
+                                    "ROS_PACKAGE_PATH and AMENT_PREFIX_PATH")
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
     battery: BatteryConfig = Field(default_factory=BatteryConfig)
     navigation: dict[str, Any] = Field(default_factory=dict, description="planning.NavigatorConfig fields")

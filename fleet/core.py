@@ -21,12 +21,13 @@ from fleet.battery import BatteryBank
 from fleet.config import FleetConfig
 from fleet.control import ControlLoop
 from fleet.events import EventBus
-from fleet.paths import Workspace, robot_file, world_file
+from fleet.paths import Workspace, robot_model, world_file
 from fleet.safety import SafetyEnvelope
 from fleet.types import FleetSnapshot
-from sim import Clock, ClockMode, FleetError, Pose2D, RobotSpec, World, load_robot_spec
+from sim import Clock, ClockMode, FleetError, Pose2D, RobotSpec, World
 from sim.errors import ErrorCode
 from sim.types import Plane, WorldDescription
+from sim.urdf_robot import LoadedRobot
 
 if TYPE_CHECKING:
     from fleet.service import FleetService
@@ -51,7 +52,7 @@ class ServiceCore:
         self._wake = threading.Event()
         self.world: World
         self.docks: dict[str, Pose2D] = {}
-        self._specs: dict[str, RobotSpec] = {}
+        self._specs: dict[str, LoadedRobot] = {}
         # Hooks for front doors, run on the sim thread. Listeners get each published snapshot; a gate, when
         # set, is called before every control tick and may block (lock-step agents over Zenoh).
         self.tick_listeners: list[Callable[[FleetSnapshot], None]] = []
@@ -97,9 +98,13 @@ class ServiceCore:
         """Hook for operation mixins to set up their state on each (re)build of the world."""
 
     def default_spec(self, model: str | None = None) -> RobotSpec:
+        return self.robot_model(model).spec
+
+    def robot_model(self, model: str | None = None) -> LoadedRobot:
+        """A robot model (name, .yaml/.urdf/.xacro file or URDF text) and what its description left out."""
         key = model or self.config.robot_model
         if key not in self._specs:
-            self._specs[key] = load_robot_spec(robot_file(key))
+            self._specs[key] = robot_model(key, package_path=self.config.package_path)
         return self._specs[key]
 
     # ---- threading: one sim thread, a command queue, futures -------------------------------------------

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import typer
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -12,16 +10,23 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
 
 @app.command()
 def demo(
-    world: Path = typer.Option(Path("configs/worlds/robot_arena.world"), help="SDF world file"),
+    world: str = typer.Option("robot_arena", help="a shipped world name or an SDF world file"),
     robots: int = typer.Option(3, min=1, max=50, help="robots to spawn"),
     seconds: float = typer.Option(20.0, min=0.1, help="sim seconds to run"),
     fidelity: str = typer.Option("kinematic", help="kinematic or dynamic"),
     seed: int = typer.Option(0),
 ) -> None:
     """Headless demo: load a world, spawn robots, drive them, print what happened."""
+    from fleet.paths import world_file
     from fleetnav.demo import run_demo
+    from sim.errors import FleetError
 
-    raise typer.Exit(run_demo(world, robots=robots, seconds=seconds, fidelity=fidelity, seed=seed))
+    try:
+        path = world_file(world)
+    except FleetError as exc:
+        typer.echo(f"error: {exc.message} ({exc.hint})", err=True)
+        raise typer.Exit(2) from exc
+    raise typer.Exit(run_demo(path, robots=robots, seconds=seconds, fidelity=fidelity, seed=seed))
 
 
 @app.command()

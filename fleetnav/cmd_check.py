@@ -56,5 +56,5 @@ def world(file: Path = typer.Argument(..., help="SDF .world file"),
 @check_app.command("robot")
 def robot(file: Path = typer.Argument(..., help="URDF file"),
           as_json: bool = typer.Option(False, "--json", help="print the report as JSON")) -> None:
-    """Robot Model rubric (25 points). Exit 0 only if every item passes."""
+    """Robot Model (25 points) and Gazebo Plugins (20 points) rubric. Exit 0 only if every item passes."""
     _run("robot", file, as_json)

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 from sim.clock import Clock, ClockMode
 from sim.config import StrictModel, load_yaml
 from sim.errors import ErrorCode, FleetError
+from sim.robot_load import load_robot_model
 from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
 from sim.sdf_parser import parse_sdf, parse_sdf_string
 from sim.sdf_writer import save_sdf, write_sdf
@@ -24,6 +25,7 @@ from sim.types import (
     Pose3D,
     WorldDescription,
 )
+from sim.urdf_robot import LoadedRobot
 from sim.world_types import CommandResult, ModelState
 from sim.worldgen import cluttered_arena, warehouse
 
@@ -50,6 +52,7 @@ __all__ = [
     "FleetError",
     "ImuReading",
     "LidarScan",
+    "LoadedRobot",
     "ModelDescription",
     "ModelState",
     "OdometryReading",
@@ -61,6 +64,7 @@ __all__ = [
     "WorldDescription",
     "cluttered_arena",
     "default_robot_path",
+    "load_robot_model",
     "load_robot_spec",
     "load_yaml",
     "parse_sdf",

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pybullet as p
 
+from sim.errors import ErrorCode, FleetError
 from sim.robot_spec import RobotSpec
 
 GROUND_GROUP = 4  # collision group of ground planes: kinematic proxies never test against them
@@ -21,13 +22,20 @@ class RobotBody:
     link_names: dict[int, str] = field(default_factory=dict)  # -1 is the base
     left_wheel: int = -1
     right_wheel: int = -1
+    drive_left: list[int] = field(default_factory=list)  # every driven joint (4-wheel bases drive two pairs)
+    drive_right: list[int] = field(default_factory=list)
 
 
 def kinematic_proxy(client: int, spec: RobotSpec) -> RobotBody:
     """Chassis+wheels envelope box, mast and lidar housing as one compound body (cheap to teleport and test).
 
     Its base frame is base_link on the floor under the axle centre; mass > 0 so Bullet tests it against
-    static obstacles, and it never sleeps so contacts are always computed."""
+    static obstacles, and it never sleeps so contacts are always computed. A robot from a URDF gets its own
+    collision primitives instead (sim.urdf_proxy)."""
+    if spec.description is not None:
+        from sim.urdf_proxy import urdf_proxy
+
+        return RobotBody(urdf_proxy(client, spec), {-1: "base_link"})
     hx = spec.chassis.size[0] / 2
     hy = max(spec.chassis.size[1] / 2, spec.wheels.separation / 2 + spec.wheels.width / 2)
     top = spec.chassis_z + spec.chassis.size[2] / 2
@@ -72,22 +80,28 @@ def _urdf_file(spec: RobotSpec) -> Path:
 
 
 def dynamic_robot(client: int, spec: RobotSpec) -> RobotBody:
-    """The full URDF robot with wheel joints under velocity motors."""
-    uid = p.loadURDF(str(_urdf_file(spec)), [0, 0, 0], useFixedBase=False,
+    """The full URDF robot (the user's description, or the one generated from the spec) with its driven wheel
+    joints under velocity motors."""
+    path = spec.description or str(_urdf_file(spec))
+    uid = p.loadURDF(path, [0, 0, 0], useFixedBase=False,
                      flags=p.URDF_USE_INERTIA_FROM_FILE | p.URDF_USE_IMPLICIT_CYLINDER, physicsClientId=client)
     body = RobotBody(uid, {-1: p.getBodyInfo(uid, physicsClientId=client)[0].decode()})
+    left, right = spec.wheels.left_joints, spec.wheels.right_joints
     for j in range(p.getNumJoints(uid, physicsClientId=client)):
         info = p.getJointInfo(uid, j, physicsClientId=client)
         jname, lname = info[1].decode(), info[12].decode()
         body.link_names[j] = lname
-        if jname == "left_wheel_joint":
-            body.left_wheel = j
-        elif jname == "right_wheel_joint":
-            body.right_wheel = j
+        if jname in left:
+            body.drive_left.append(j)
+        elif jname in right:
+            body.drive_right.append(j)
         # Free-spinning passive joints (caster): disable the default motor that would brake them.
-        if info[2] == p.JOINT_REVOLUTE and jname not in ("left_wheel_joint", "right_wheel_joint"):
+        elif info[2] == p.JOINT_REVOLUTE:
             p.setJointMotorControl2(uid, j, p.VELOCITY_CONTROL, force=0, physicsClientId=client)
-    if body.left_wheel < 0 or body.right_wheel < 0:
-        raise ValueError("robot URDF lacks left_wheel_joint/right_wheel_joint")
+    if len(body.drive_left) != len(left) or len(body.drive_right) != len(right):
+        p.removeBody(uid, physicsClientId=client)
+        raise FleetError(ErrorCode.INVALID_CONFIG, f"robot '{spec.name}': {path} lacks the wheel joints "
+                         f"{', '.join((*left, *right))}", "name the driven joints in wheels.left_joints/right_joints")
+    body.left_wheel, body.right_wheel = body.drive_left[0], body.drive_right[0]
     p.changeDynamics(uid, -1, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=client)
     return body

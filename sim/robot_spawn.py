@@ -77,7 +77,7 @@ def place_robot(world: World, row: int, pose: Pose2D, *, check_collision: bool) 
     name = t.names[row]
     body = world.bodies[name]
     old = (float(t.f["x"][row]), float(t.f["y"][row]), float(t.f["yaw"][row]))
-    z = 0.0 if world.fidelities[name] == "kinematic" else world.specs[name].wheels.radius - _axle_z(world, name)
+    z = 0.0  # every robot body's base frame is base_link, on the floor under the axle centre (sim.urdf_process)
     p.resetBasePositionAndOrientation(body.uid, (pose.x, pose.y, z), rpy_to_quat(0, 0, pose.yaw), physicsClientId=c)
     p.resetBaseVelocity(body.uid, (0, 0, 0), (0, 0, 0), physicsClientId=c)
     t.f["x"][row], t.f["y"][row], t.f["yaw"][row] = pose.x, pose.y, pose.yaw  # the broadphase reads the table
@@ -91,13 +91,6 @@ def place_robot(world: World, row: int, pose: Pose2D, *, check_collision: bool) 
                              "choose a free pose (see the occupancy map)")
     for col in ("v", "w", "cmd_v", "cmd_w", "sp_v", "sp_w", "prev_v", "prev_w"):
         t.f[col][row] = 0.0
-
-
-def _axle_z(world: World, name: str) -> float:
-    """Height of the wheel axle above the URDF base frame (0 when base_link is on the axle)."""
-    body = world.bodies[name]
-    info = p.getJointInfo(body.uid, body.left_wheel, physicsClientId=world.client)
-    return float(info[14][2])  # parentFramePos z of the wheel joint, in the base (COM-free) frame
 
 
 def read_dynamic_states(world: World, rows: np.ndarray) -> None:

@@ -34,6 +34,9 @@ class WheelSpec(StrictModel):
     rolling_friction: float = Field(0.001, ge=0)
     spinning_friction: float = Field(0.001, ge=0)
     max_torque: float = Field(10.0, gt=0, description="motor torque limit, N·m")
+    left_joints: tuple[str, ...] = Field(("left_wheel_joint",), min_length=1,
+                                         description="driven left wheel joints (several for 4-wheel bases)")
+    right_joints: tuple[str, ...] = Field(("right_wheel_joint",), min_length=1)
 
 
 class CasterSpec(StrictModel):
@@ -66,6 +69,7 @@ class LidarSpec(StrictModel):
     range_max: float = Field(10.0, gt=0)
     noise_std: float = Field(0.01, ge=0, description="range noise σ, m")
     mount_z: float = Field(0.02, description="lidar origin above the mast top, m")
+    mount: Vec3 | None = Field(None, description="lidar origin in base_link (from a URDF); None: on the mast")
 
     @model_validator(mode="after")
     def _ranges(self) -> LidarSpec:
@@ -86,6 +90,7 @@ class CameraSpec(StrictModel):
     fov_deg: float = Field(60.0, gt=0, lt=180)
     near: float = Field(0.05, gt=0)
     far: float = Field(30.0, gt=0)
+    mount: Vec3 | None = Field(None, description="camera origin in base_link (from a URDF); None: chassis front")
 
 
 class DepthCameraSpec(StrictModel):
@@ -132,6 +137,11 @@ class RobotSpec(StrictModel):
     mast: MastSpec = MastSpec()
     limits: LimitsSpec = LimitsSpec()
     sensors: SensorsSpec = SensorsSpec()
+    extent: tuple[float, float, float, float] | None = Field(
+        None, description="(x_min, x_max, y_min, y_max) of the collision geometry in base_link (from a URDF); "
+        "None: chassis and wheels")
+    description: str | None = Field(None, description="URDF file the robot is built from, its root on the floor "
+                                    "under the axle centre (sim.urdf_robot); None: generated from this spec")
 
     @model_validator(mode="after")
     def _geometry(self) -> RobotSpec:
@@ -159,23 +169,34 @@ class RobotSpec(StrictModel):
     @property
     def lidar_height(self) -> float:
         """Lidar origin height above the floor."""
+        if self.sensors.lidar.mount is not None:
+            return self.sensors.lidar.mount[2]
         return self.chassis_z + self.chassis.size[2] / 2 + self.mast.height + self.sensors.lidar.mount_z
 
     @property
     def footprint_radius(self) -> float:
         """Radius of the smallest circle about base_link holding chassis and wheels (for planners)."""
+        if self.extent is not None:
+            x0, x1, y0, y1 = self.extent
+            return math.hypot(max(abs(x0), abs(x1)), max(abs(y0), abs(y1)))
         half_x = self.chassis.size[0] / 2
         half_y = max(self.chassis.size[1] / 2, self.wheels.separation / 2 + self.wheels.width / 2)
         return math.hypot(half_x, half_y)
 
     @property
     def camera_mount(self) -> Pose3D:
-        """Camera link pose in base_link: on the chassis front face, 3 cm below its top, looking forward."""
+        """Camera link pose in base_link: the URDF's mount, else on the chassis front face, 3 cm below its
+        top, looking forward."""
+        if self.sensors.camera.mount is not None:
+            return Pose3D(*self.sensors.camera.mount)
         return Pose3D(self.chassis.size[0] / 2 + 0.01, 0.0, self.chassis_z + self.chassis.size[2] / 2 - 0.03)
 
     @property
     def footprint(self) -> list[tuple[float, float]]:
-        """Footprint polygon (base_link frame, CCW): chassis plus wheels."""
+        """Footprint polygon (base_link frame, CCW): chassis plus wheels, or the URDF's collision extent."""
+        if self.extent is not None:
+            x0, x1, y0, y1 = self.extent
+            return [(x1, y0), (x0, y0), (x0, y1), (x1, y1)]  # the same vertex order as below
         hx = self.chassis.size[0] / 2
         hy = max(self.chassis.size[1] / 2, self.wheels.separation / 2 + self.wheels.width / 2)
         return [(hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy)][::-1]
@@ -186,4 +207,6 @@ def load_robot_spec(path: str | Path) -> RobotSpec:
 
 
 def default_robot_path() -> Path:
-    return Path(__file__).resolve().parent.parent / "configs" / "robots" / "diffbot.yaml"
+    from sim.resources import shipped
+
+    return shipped("robots", "diffbot.yaml")

@@ -9,9 +9,10 @@ from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 from sim.errors import ErrorCode, FleetError
+from sim.resources import shipped
 from sim.sdf_xml import Node, parse_xml
 
-DEFAULT_MODEL_DIR = Path(__file__).resolve().parents[1] / "configs" / "models"
+DEFAULT_MODEL_DIR = shipped("models")
 MODEL_PATH_ENV = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH")
 FUEL_CACHES = (Path.home() / ".gz" / "fuel", Path.home() / ".ignition" / "fuel")
 

@@ -13,9 +13,10 @@ import numpy as np
 import pybullet as p
 
 from sim.errors import ErrorCode, FleetError
+from sim.resources import shipped
 from sim.types import Box, Collision, Cylinder, Geometry, Link, Mesh, Plane, Pose3D, Sphere, Visual
 
-DEFAULT_TEXTURE = Path(__file__).resolve().parents[1] / "configs" / "worlds" / "textures" / "floor_tiles.png"
+DEFAULT_TEXTURE = shipped("worlds", "textures", "floor_tiles.png")
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tga", ".bmp")
 TILE_M = 1.0  # the ground texture repeats every metre
 WHITE = (1.0, 1.0, 1.0, 1.0)

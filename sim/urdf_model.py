@@ -109,6 +109,11 @@ class UrdfSensor:
     noise_stddev: float | None = None
     plugins: tuple[UrdfPlugin, ...] = ()
     line: int = 0
+    accel_noise_stddev: float | None = None  # imu: linear acceleration noise (noise_stddev is the gyro's)
+    pose: Pose3D = _ZERO  # the sensor's <pose> in its link's frame
+
+    def plugin(self) -> UrdfPlugin | None:
+        return self.plugins[0] if self.plugins else None
 
 
 @dataclass(frozen=True)

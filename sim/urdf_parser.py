@@ -226,7 +226,21 @@ class _Reader:
             self.number(ray, "range/max") if ray else self.number(cam, "clip/far"),
             self.number(cam, "horizontal_fov"), int(width) if width is not None else None,
             int(height) if height is not None else None, fmt.text.strip() if fmt else None,
-            self.number(noise, "noise/stddev"), tuple(self.plugin(p) for p in node.all("plugin")), node.line)
+            self.number(noise, "noise/stddev"), tuple(self.plugin(p) for p in node.all("plugin")), node.line,
+            self.number(node.find("imu/linear_acceleration/x"), "noise/stddev"), self.sensor_pose(node))
+
+    def sensor_pose(self, node: _Node) -> Pose3D:
+        pose = node.find("pose")
+        if pose is None or not pose.text.strip():
+            return _ZERO
+        try:
+            values = [float(v) for v in pose.text.split()]
+        except ValueError:
+            values = []
+        if len(values) != 6 or not all(math.isfinite(v) for v in values):
+            raise self.error(pose, f"<pose>{pose.text.strip()}</pose>: expected 6 finite numbers (x y z roll "
+                             "pitch yaw)")
+        return Pose3D(*values)
 
     def robot(self, root: _Node, base_dir: Path) -> UrdfRobot:
         if root.tag != "robot":
@@ -286,11 +300,12 @@ class _Reader:
         return tuple(sensors), tuple(plugins)
 
 
-def parse_urdf(source: str | Path) -> UrdfRobot:
+def parse_urdf(source: str | Path, *, name: str = "<string>", base_dir: Path | None = None) -> UrdfRobot:
     """Parse URDF text (a string starting with '<') or a file path. Problems raise FleetError naming the
-    file and line: INVALID_CONFIG for bad content, NOT_FOUND for an unreadable file."""
+    file and line: INVALID_CONFIG for bad content, NOT_FOUND for an unreadable file. Text gets `name` in
+    messages and resolves relative mesh paths from `base_dir` (default: the working directory)."""
     if isinstance(source, str) and source.lstrip().startswith("<"):
-        text, name, base_dir = source, "<string>", Path.cwd()
+        text, base_dir = source, base_dir or Path.cwd()
     else:
         path = Path(source)
         try:

@@ -214,9 +214,10 @@ class World:
             name = self.table.names[i]
             body = self.bodies[name]
             torque = self.specs[name].wheels.max_torque
-            p.setJointMotorControlArray(body.uid, [body.left_wheel, body.right_wheel], p.VELOCITY_CONTROL,
-                                        targetVelocities=[left, right], forces=[torque, torque],
-                                        physicsClientId=self.client)
+            joints, n_left = [*body.drive_left, *body.drive_right], len(body.drive_left)
+            p.setJointMotorControlArray(body.uid, joints, p.VELOCITY_CONTROL,
+                                        targetVelocities=[left] * n_left + [right] * (len(joints) - n_left),
+                                        forces=[torque] * len(joints), physicsClientId=self.client)
 
     def _step_physics(self) -> None:
         if self.table.b["kinematic"].all() and not self.models.has_dynamic_models():

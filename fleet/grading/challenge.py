@@ -15,7 +15,7 @@ from typing import Literal
 
 from pydantic import Field, PrivateAttr, model_validator
 
-from fleet.paths import CONFIGS, world_file
+from fleet.paths import CONFIGS, ROBOT_SUFFIXES, robot_file, world_file
 from sim.config import StrictModel, load_yaml
 from sim.errors import ErrorCode, FleetError
 from sim.sdf_parser import parse_sdf
@@ -60,7 +60,8 @@ class Challenge(StrictModel):
     time_limit: float = Field(gt=0, le=3600, description="sim seconds per run")
     collision: Literal["end", "count"] = Field(
         "end", description="end: the first contact ends the run as a failure (BARN); count: keep going, report")
-    robot: str = Field("diffbot", description="a robot config in configs/robots")
+    robot: str = Field("diffbot", description="a shipped robot model name, or a .yaml/.urdf/.urdf.xacro file "
+                       "(relative to this file)")
     fidelity: Literal["kinematic", "dynamic"] = "kinematic"
     physics_hz: float = Field(100.0, ge=10, le=2000)
     control_hz: float = Field(10.0, ge=1, le=200)
@@ -108,6 +109,8 @@ def load_challenge(name_or_path: str | Path) -> Challenge:
     path = challenge_file(name_or_path)
     ch = load_yaml(path, Challenge)
     ch._base_dir = path.resolve().parent
+    if Path(ch.robot).suffix in ROBOT_SUFFIXES:  # like `world:`, a robot file is relative to the challenge file
+        ch.robot = str(robot_file(ch.robot, ch._base_dir))
     return ch
 
 

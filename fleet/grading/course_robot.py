@@ -1,4 +1,6 @@
-"""`fleetnav check robot`: grade a URDF against the course's "Robot Model" requirements (25 pts)."""
+"""`fleetnav check robot`: grade a URDF against the course's "Robot Model" (25 pts) and "Gazebo Plugins
+Integration" (20 pts) requirements, as a grader reading the file would: the physics must hold together
+(course_physics.py) and the plugins must agree with the geometry (course_plugins.py)."""
 
 from __future__ import annotations
 
@@ -7,10 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
+from fleet.grading.course_physics import GROUND_TOL, INERTIA_FACTOR, ground_contact, inertia_mismatches
+from fleet.grading.course_plugins import add_plugin_items
 from fleet.grading.rubric import RubricReport
 from sim.types import Box, Cylinder, Sphere
 from sim.urdf_model import UrdfRobot, UrdfSensor
 from sim.urdf_parser import parse_urdf
+from sim.urdf_robot import read_description
 
 REL_TOL = 0.05  # dimensions within 5 %
 MASS = 5.0
@@ -30,11 +35,13 @@ def _sensor(robot: UrdfRobot, *types: str) -> UrdfSensor | None:
 
 
 def check_robot(path: str | Path) -> RubricReport:
-    return grade_robot(parse_urdf(Path(path)), str(path))
+    """Grade a .urdf or .urdf.xacro file (xacro is expanded first)."""
+    text, name, base_dir = read_description(Path(path))
+    return grade_robot(parse_urdf(text, name=name, base_dir=base_dir), str(path))
 
 
 def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:
-    rep = RubricReport("Robot Model (urdf/simulation_robot.urdf)", source)
+    rep = RubricReport(f"Robot Model + Gazebo Plugins ({Path(source).name})", source)
     wheels = _wheel_joints(robot)
     casters = [lk for lk in robot.links.values() if "caster" in lk.name.lower()
                or any(isinstance(c.geometry, Sphere) for c in lk.collisions)]
@@ -68,8 +75,13 @@ def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:
 
     no_inertial = [lk.name for lk in robot.links.values() if lk.inertial is None or lk.inertial.mass <= 0
                    or not lk.inertial.inertia.is_physical()]
-    rep.add("inertials", "inertial properties on all links", 2, not no_inertial,
-            "all links" if not no_inertial else f"missing/invalid on {', '.join(no_inertial)}", "every link")
+    rep.add("inertials", "inertial properties on all links, physically valid", 1, not no_inertial,
+            "all links" if not no_inertial else f"missing/invalid on {', '.join(no_inertial)}",
+            "every link: mass > 0, tensor positive definite, I1 + I2 ≥ I3")
+    far = inertia_mismatches(robot)
+    rep.add("inertia_geometry", "inertia tensors near their geometry's", 1, not far,
+            "all within ×2" if not far else "; ".join(far), f"principal moments within ×{INERTIA_FACTOR:g} of the "
+            "collision shape's closed form")
 
     friction_links = [*[robot.joints[j].child for j in wheels], *[c.name for c in casters]]
     def has_friction(name: str) -> bool:
@@ -83,8 +95,11 @@ def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:
     mismatched = [lk.name for lk in robot.links.values()
                   if [(v.geometry, v.origin) for v in lk.visuals] != [(c.geometry, c.origin) for c in lk.collisions]
                   and (lk.visuals or lk.collisions)]
-    rep.add("collision_matches_visual", "collision geometries match visual", 2, not mismatched,
+    rep.add("collision_matches_visual", "collision geometries match visual", 1, not mismatched,
             "all links" if not mismatched else f"differ on {', '.join(mismatched)}", "identical geometry and origin")
+    contact_ok, contact = ground_contact(robot, [robot.joints[j].child for j in wheels], [c.name for c in casters])
+    rep.add("ground_contact", "wheels rest on the ground plane, the caster touches it", 1, contact_ok, contact,
+            f"wheels and caster within {GROUND_TOL * 100:g} cm of the lowest point")
 
     lidar = _sensor(robot, "ray", "gpu_ray", "gpu_lidar", "lidar")
     if lidar is not None and lidar.min_angle is not None and lidar.max_angle is not None and lidar.samples:
@@ -112,6 +127,7 @@ def grade_robot(robot: UrdfRobot, source: str) -> RubricReport:
     imu = _sensor(robot, "imu")
     rep.add("imu", "IMU at 100 Hz", 1, imu is not None and _close(imu.update_rate or 0, 100.0),
             f"{imu.update_rate} Hz" if imu else "no imu sensor", "100 Hz")
+    add_plugin_items(rep, robot, wheels)
     depth = _sensor(robot, "depth")
     rep.notes.append("depth camera (optional): " + (f"{depth.image_width}×{depth.image_height}, "
                                                       f"{depth.range_min}–{depth.range_max} m" if depth else "absent"))

@@ -20,12 +20,12 @@ from fleet.grading.episode import Episode
 from fleet.grading.report import write_report
 from fleet.grading.score import clearances, optimal_path, score_run, summarize
 from fleet.grading.types import ChallengeReport, Outcome, RunResult
-from fleet.paths import robot_file
+from fleet.paths import robot_model
 from fleet.service import FleetService
 from planning import FclWorld, controller_names
 from sim.config import dump_yaml
 from sim.errors import ErrorCode, FleetError, unknown_name
-from sim.robot_spec import RobotSpec, load_robot_spec
+from sim.robot_spec import RobotSpec
 
 BUILTIN = "builtin:"
 ROBOT = "r1"
@@ -45,7 +45,7 @@ def run_challenge(challenge: Challenge | str | Path, *, agent: str | None = None
     out.mkdir(parents=True, exist_ok=True)
     dump_yaml(ch, out / "challenge.yaml")  # the challenge as run, next to its results
     rc = resolve(ch, out)
-    spec = load_robot_spec(robot_file(ch.robot))
+    spec = robot_model(ch.robot).spec
     plan = optimal_path(rc.description, rc.start, rc.goal, robot_radius=spec.footprint_radius,
                         planner=ch.optimal_planner)
     fcl_world = FclWorld(rc.description)

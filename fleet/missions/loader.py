@@ -48,10 +48,38 @@ def mission_from_text(text: str, source: str = "<string>", base: Path | None = N
                                               "configs/worlds or an SDF path relative to the mission)",
                                               mission.world)]
     problems += check_references(mission, world)
+    mission, model_problems = resolve_models(mission, base)
+    problems += model_problems
     if problems:
         raise FleetError(ErrorCode.INVALID_CONFIG, format_validation_error(_as_error(problems), source, root), HINT)
     assert world is not None
     return mission.model_copy(update={"world": str(world)})
+
+
+def resolve_models(m: Mission, base: Path | None) -> tuple[Mission, list[Problem]]:
+    """Robot models as absolute paths (relative ones start from the mission's folder), each loaded once so a
+    missing file or a bad description is a load error at its line, not a failure mid-run."""
+    from fleet.paths import ROBOT_SUFFIXES, robot_file, robot_model
+
+    problems: list[Problem] = []
+    checked: dict[str, str | None] = {}
+
+    def resolve(loc: tuple[int | str, ...], model: str) -> str:
+        if model not in checked:
+            try:
+                is_file = not model.lstrip().startswith("<") and Path(model).suffix in ROBOT_SUFFIXES
+                robot_model(str(robot_file(model, base)) if is_file else model)
+                checked[model] = str(robot_file(model, base)) if is_file else model  # names stay names
+            except FleetError as exc:
+                checked[model] = None
+                problems.append((loc, exc.message, model))
+        return checked[model] or model
+
+    robots = [r.model_copy(update={"model": resolve(("robots", i, "model"), r.model)})
+              for i, r in enumerate(m.robots)]
+    fleets = [f.model_copy(update={"model": resolve(("fleets", i, "model"), f.model)}) if f.model else f
+              for i, f in enumerate(m.fleets)]
+    return m.model_copy(update={"robots": robots, "fleets": fleets}), problems
 
 
 def resolve_world(name: str, base: Path | None) -> Path | None:

@@ -68,10 +68,24 @@ class MissionFailed(Exception):
     pass
 
 
+class MissionSetupError(Exception):
+    """The mission file cannot be run (bad file, missing world or robot model): a test error, not a failure."""
+
+
 class MissionItem(pytest.Item):
     def __init__(self, *, seed: int, **kw: Any) -> None:
         super().__init__(**kw)
         self.seed = seed
+
+    def setup(self) -> None:
+        # Loading in the setup phase makes a bad mission an <error> in JUnit, distinct from a failed assertion.
+        from fleet.missions.loader import load_mission
+        from sim.errors import FleetError
+
+        try:
+            load_mission(self.path)
+        except FleetError as exc:
+            raise MissionSetupError(exc.message + (f" ({exc.hint})" if exc.hint else "")) from None
 
     def runtest(self) -> None:
         from fleet.missions.batch import RunRequest, run_file
@@ -89,6 +103,8 @@ class MissionItem(pytest.Item):
     def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException], style: Any = None) -> str:
         if isinstance(excinfo.value, MissionFailed):
             return f"mission {self.path.name} [{self.name}] failed:\n{excinfo.value}"
+        if isinstance(excinfo.value, MissionSetupError):
+            return f"mission {self.path.name} cannot be set up: {excinfo.value}"
         return str(super().repr_failure(excinfo))
 
     def reportinfo(self) -> tuple[Path, int | None, str]:

@@ -19,6 +19,7 @@ from fleet.missions.schema import Mission
 from fleet.missions.types import AssertionResult, RunData, clean
 
 WALL = "wall"
+SETUP_ERRORS = ("load", "crash")  # the run never started or broke: the mission file or setup is at fault
 
 
 def build_report(m: Mission, source: str, data: RunData, results: list[AssertionResult], channels: dict[str, int],
@@ -75,13 +76,16 @@ def junit_xml(reports: list[dict[str, Any]]) -> str:
     for r in reports:
         label = f"{r['mission']}[seed={r['seed']}]"
         cases = r.get("assertions", [])
+        errors = sum(not c["passed"] and c["type"] in SETUP_ERRORS for c in cases)
         suite = ET.SubElement(suites, "testsuite", name=label, tests=str(len(cases)),
-                              failures=str(sum(not c["passed"] for c in cases)), errors="0",
+                              failures=str(sum(not c["passed"] for c in cases) - errors), errors=str(errors),
                               time=f"{r.get(WALL, {}).get('wall_s', 0.0):.3f}")
         for c in cases:
             case = ET.SubElement(suite, "testcase", classname=f"missions.{r['mission']}", name=c["name"])
             if not c["passed"]:
-                fail = ET.SubElement(case, "failure", message=c["message"], type=c["type"])
+                # A run that could not be set up (bad file, missing model) is an <error>, not a <failure>.
+                tag = "error" if c["type"] in SETUP_ERRORS else "failure"
+                fail = ET.SubElement(case, tag, message=c["message"], type=c["type"])
                 fail.text = f"measured: {c['measured']}\nexpected: {c['expected']}\n{c['message']}"
         ET.SubElement(suite, "system-out").text = f"sim time {r['end_time']} s ({r['ended_because']})"
     ET.indent(suites)

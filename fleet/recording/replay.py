@@ -16,10 +16,10 @@ from pathlib import Path
 
 from fleet.missions.events import RemoveObstacle, SensorFault, SpawnObstacle, obstacle_pose, obstacle_sdf
 from fleet.missions.loader import mission_from_text
-from fleet.paths import robot_file
+from fleet.paths import robot_model
 from fleet.recording.reader import metadata, states
 from fleet.recording.types import MISSION_METADATA, SPAWN_METADATA, ReplayResult
-from sim import Pose2D, World, load_robot_spec
+from sim import Pose2D, World
 from sim.errors import ErrorCode, FleetError
 
 
@@ -35,7 +35,7 @@ def replay(path: str | Path) -> ReplayResult:
     world = World.from_sdf(mission.world, physics_hz=ph.physics_hz, seed=seed, fidelity=ph.fidelity)
     try:
         for name, r in spawn.items():
-            world.spawn_robot(name, Pose2D(*r["pose"]), spec=load_robot_spec(robot_file(r["model"])),
+            world.spawn_robot(name, Pose2D(*r["pose"]), spec=robot_model(r["model"]).spec,
                               fidelity=r["fidelity"])
         return _drive(world, mission.events, round(ph.physics_hz / ph.control_hz), str(path), list(spawn))
     finally:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fleet.workspace import Workspace
 from sim.errors import ErrorCode, FleetError
+
+__all__ = ["CONFIGS", "ROOT", "Workspace", "robot_file", "world_file"]  # Workspace lives in fleet/workspace.py
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
@@ -32,19 +35,3 @@ def robot_file(name_or_path: str) -> Path:
         return cand
     known = sorted(f.stem for f in (CONFIGS / "robots").glob("*.yaml"))
     raise FleetError(ErrorCode.NOT_FOUND, f"no robot model '{name_or_path}'", f"known models: {', '.join(known)}")
-
-
-class Workspace:
-    """File arguments from front doors resolve inside `root` (shipped configs may be read too)."""
-
-    def __init__(self, root: str | Path) -> None:
-        self.root = Path(root).resolve()
-
-    def resolve(self, path: str | Path, *, write: bool = False) -> Path:
-        p = Path(path)
-        full = (p if p.is_absolute() else self.root / p).resolve()
-        allowed = [self.root] if write else [self.root, CONFIGS.resolve()]
-        if not any(full == a or a in full.parents for a in allowed):
-            raise FleetError(ErrorCode.PATH_NOT_ALLOWED, f"path '{path}' is outside the workspace {self.root}",
-                             "use a path inside the workspace directory")
-        return full

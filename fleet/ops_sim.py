@@ -233,9 +233,10 @@ class SimOps(ServiceCore):
                 "last_snapshot": self._last_snapshot}
 
     def restart(self) -> dict[str, Any]:
-        """Rebuild the world after the sim thread died (or on demand): the world file is loaded again, then
-        the last saved snapshot is restored exactly (its robots respawned first); without one, the robots come
-        back at their last published poses and charge, at sim time 0. Tasks do not survive a restart."""
+        """Bring the world back after the sim thread died (or on demand). When the PyBullet world is intact
+        and a snapshot was saved, the last snapshot is restored exactly in it; otherwise the world file is
+        loaded again with the robots at their last published poses and charge (sim time 0). Tasks are
+        canceled either way; the sim thread starts again if it ran before."""
         from sim import Pose2D
 
         svc = cast("FleetService", self)
@@ -247,29 +248,26 @@ class SimOps(ServiceCore):
             if self._thread.is_alive():
                 raise FleetError(ErrorCode.BUSY, "the sim thread is still running a command", "try again shortly")
             self._thread = None
-        last = self._snapshot
-        models = {n: self.registry.get(n).model for n in last.names if self.registry.has(n)}
-        snaps, latest = dict(self._snapshots), self._last_snapshot
-        with contextlib.suppress(Exception):  # a broken client is what we are replacing
-            self.world.close()
-        self._build(str(self.world_path))
-        self._snapshots, self._last_snapshot = snaps, latest
         self.health = type(self.health)(restarts=self.health.restarts + 1)
-        source, skipped = "the world file", []
-        if latest is not None and latest in snaps:
-            snap, soc = snaps[latest]
+        source, skipped, latest = "", [], self._last_snapshot
+        if latest is not None and latest in self._snapshots:
+            snap, soc = self._snapshots[latest]
             try:
-                for n in snap.robot_names:
-                    svc.spawn_robot(n, Pose2D(0.0, 0.0, 0.0), model=models.get(n))
+                self.control.cancel_all("simulation restarted")
                 self.world.restore(snap)
                 self.battery.soc = soc.copy()
                 source = f"snapshot '{latest}'"
-            except FleetError as exc:
-                skipped.append(f"snapshot '{latest}': {exc.message}")
+            except Exception as exc:  # a broken world or another robot set: rebuild from the file below
+                skipped.append(f"snapshot '{latest}': {str(exc)[:120]}")
+        if not source:
+            last = self._snapshot
+            models = {n: self.registry.get(n).model for n in last.names if self.registry.has(n)}
+            snaps = dict(self._snapshots)
+            with contextlib.suppress(Exception):  # a broken client is what we are replacing
                 self.world.close()
-                self._build(str(self.world_path))
-                self._snapshots, self._last_snapshot = snaps, latest
-        if source == "the world file":
+            self._build(str(self.world_path))
+            self._snapshots, self._last_snapshot = snaps, latest
+            source = "the world file"
             for i, n in enumerate(last.names):
                 x, y, yaw = (float(v) for v in last.pose[i])
                 try:
@@ -277,7 +275,8 @@ class SimOps(ServiceCore):
                 except FleetError as exc:
                     skipped.append(f"{n}: {exc.message}")
             if last.names:
-                source = "the last published state"
+                source = "the world file and the last published robot poses"
+        self.repace()
         self._publish()
         self.events.publish(self.world.time, "sim_restarted", message=f"restarted from {source}")
         if was_threaded:

@@ -51,7 +51,7 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         src = svc.workspace.resolve(path)
         m = await anyio.to_thread.run_sync(load_mission, src)
-        return MissionCheck(sim_time=svc.snapshot.time, path=str(src), valid=True,
+        return MissionCheck(sim_time=svc.sim_time, path=str(src), valid=True,
                             mission={"name": m.name, "world": m.world, "seed": m.seed, "time_limit": m.time_limit,
                                      "robots": len(m.robots), "fleets": len(m.fleets), "tasks": len(m.tasks),
                                      "assertions": len(m.assertions)})
@@ -72,7 +72,7 @@ def register(tool: ToolRegistrar) -> None:
         runner = jobs_of(app)
         req = RunRequest(str(src), seed, str(out / f"run{len(runner.jobs) + 1}"), record, time_limit)
         job = runner.start("mission", str(src), lambda progress: run_file(req, progress))
-        return MissionJob(sim_time=svc.snapshot.time, job=job_ref(job))
+        return MissionJob(sim_time=svc.sim_time, job=job_ref(job))
 
     @tool(read_only=True, title="Mission status")
     async def mission_status(ctx: Context, job_id: str, wait_s: float = Field(0.0, ge=0, le=600, description=
@@ -99,7 +99,7 @@ def register(tool: ToolRegistrar) -> None:
             raise FleetError(ErrorCode.BUSY if job.state == "running" else ErrorCode.NOT_FOUND,
                              f"job {job_id} has no report ({job.state}{': ' + job.error if job.error else ''})",
                              "poll mission_status until it has finished")
-        return MissionJob(sim_time=app.service.snapshot.time,
+        return MissionJob(sim_time=app.service.sim_time,
                           job={"id": job.id, "passed": job.result.passed, "out_dir": str(job.result.out_dir),
                                "report": _report_view(job.result.report, response_format)})
 
@@ -115,4 +115,4 @@ def register(tool: ToolRegistrar) -> None:
         src = svc.workspace.resolve(path)
         check = check_world if kind == "world" else check_robot
         rep = await anyio.to_thread.run_sync(check, Path(src))
-        return Rubric(sim_time=svc.snapshot.time, report=rep.to_dict())
+        return Rubric(sim_time=svc.sim_time, report=rep.to_dict())

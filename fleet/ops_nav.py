@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from pydantic import ValidationError
+
 from fleet import validation
 from fleet.core import ServiceCore
 from planning import LayeredCostmap, OccupancyGrid, PlanResult, get_planner, rasterize_world
@@ -54,8 +56,8 @@ class NavOps(ServiceCore):
         merged = {**self.config.navigation, **(overrides or {})}
         try:
             return NavigatorConfig.model_validate(merged)
-        except ValueError as exc:
-            raise FleetError(ErrorCode.INVALID_CONFIG, f"navigation settings: {exc}") from exc
+        except ValidationError as exc:
+            raise FleetError(ErrorCode.INVALID_CONFIG, f"navigation settings: {validation.summarize(exc)}") from exc
 
     def make_navigator(self, robot: str, overrides: dict[str, Any] | None = None) -> Navigator:
         return make_navigator(self.nav_config(overrides), costmap=self.costmap_for(robot),

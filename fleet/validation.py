@@ -250,3 +250,11 @@ def models(descs: Sequence[Any], bounds: Bounds) -> None:
         for link in m.links:
             for v in link.visuals:
                 geometry(f"model {m.name} link {link.name} visual", v.geometry)
+
+
+def map_resolution(config: Mapping[str, Any] | None, field: str = "mapping.resolution") -> None:
+    """A SLAM/mapping config's grid resolution: at least MIN_MAP_RESOLUTION_M (a 1e-9 m grid never ends)."""
+    section = (config or {}).get("mapping") if isinstance(config, Mapping) else None
+    res = section.get("resolution") if isinstance(section, Mapping) else None
+    if res is not None:
+        in_range(field, res, MIN_MAP_RESOLUTION_M, 1.0)

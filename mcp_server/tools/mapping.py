@@ -10,6 +10,7 @@ from mcp.server.mcpserver import Context
 from mcp_types import CallToolResult
 from pydantic import Field
 
+from fleet.validation import map_resolution
 from mcp_server.app import app_of, run
 from mcp_server.imaging import image_result
 from mcp_server.registry import ToolRegistrar
@@ -65,6 +66,7 @@ def register(tool: ToolRegistrar) -> None:
         """Run online SLAM (KISS-ICP odometry, GTSAM pose graph with loop closures, occupancy mapping) on the
         robot's lidar from now on; drive the robot around, then read slam_status / get_slam_map."""
         svc = app_of(ctx).service
+        map_resolution(config)
         return Slam(sim_time=svc.sim_time, slam=await run(ctx, svc.start_slam, robot, config))
 
     @tool(read_only=False, idempotent=True, title="Stop SLAM")

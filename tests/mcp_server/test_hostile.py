@@ -34,6 +34,7 @@ REPRODUCERS: list[tuple[str, dict[str, Any], str]] = [
     ("spawn_model", {"xml": BOX.format(name="far", x="1e308", s=1)}, "INVALID_ARGUMENT"),
     ("spawn_model", {"xml": BOX.format(name="far2", x=0, s=1), "pose": {"x": 1e308}}, "INVALID_ARGUMENT"),
     ("set_simulation_speed", {"speed": 1e-300}, "INVALID_ARGUMENT"),
+    ("start_slam", {"robot": "r1", "config": {"mapping": {"resolution": 1e-9}}}, "INVALID_ARGUMENT"),
     ("step_simulation", {"steps": 1_000_000}, "INVALID_ARGUMENT"),
     ("cover_area", {"robot": "r1", "polygon": [[-1e6, -1e6], [1e6, -1e6], [1e6, 1e6], [-1e6, 1e6]],
                     "tool_width": 0.06}, "INVALID_ARGUMENT"),

@@ -94,6 +94,18 @@ class Workspace:
                              ".yaml path", "list_models / configs/robots for the shipped models")
         return self.read(name_or_path, "robot model")
 
+    def named(self, folder: str, name_or_path: str, what: str) -> Path:
+        """A shipped config by name (configs/<folder>/<name>.yaml, as the CLI resolves it) or a YAML path
+        inside the workspace."""
+        if NAME_RE.match(name_or_path) and not name_or_path.endswith((".yaml", ".yml")):
+            cand = self.shipped / folder / f"{name_or_path}.yaml"
+            if cand.is_file():
+                return cand
+            known = sorted(f.stem for f in (self.shipped / folder).glob("*.yaml"))
+            raise FleetError(ErrorCode.NOT_FOUND, f"no {what} named '{name_or_path}'",
+                             f"shipped: {', '.join(known) or '(none)'}; or a .yaml path in the workspace")
+        return self.read(name_or_path, what)
+
     # ---- writes ------------------------------------------------------------------------------------------
 
     def write_path(self, path: str | Path) -> Path:

@@ -17,7 +17,7 @@ from fleet import FleetService
 from mcp_server.app import App
 from mcp_server.registry import ToolRegistrar
 from mcp_server.resources import register_prompts, register_resources
-from mcp_server.tools import TOOL_GROUPS
+from mcp_server.tools import CORE, TOOLSETS, parse_toolsets
 
 INSTRUCTIONS = """fleetnav runs a real PyBullet world with differential-drive robots. Every tool acts in the simulation
 and reports what happened with the sim time; errors carry a code and a hint for what to do next. Long actions
@@ -68,11 +68,13 @@ def server_version() -> str:
 
 def build_server(service: FleetService | Callable[[], FleetService], *, read_only: bool = False,
                  name: str = "fleetnav", start: bool | None = None, speed: float = 1.0,
-                 token_verifier: TokenVerifier | None = None, auth: AuthSettings | None = None) -> MCPServer:
+                 token_verifier: TokenVerifier | None = None, auth: AuthSettings | None = None,
+                 toolsets: str | tuple[str, ...] = ("all",)) -> MCPServer:
     """The MCP server over `service` (or a factory called at startup). In read-only mode only non-mutating
     tools are exposed. `start` runs the service's sim thread in real time × `speed` at startup (default: when
     built from a factory, i.e. service mode; an instance is left as it is, e.g. batch-stepped by tests).
-    `token_verifier` + `auth` require bearer tokens on the HTTP transport."""
+    `token_verifier` + `auth` require bearer tokens on the HTTP transport. `toolsets` picks the tool groups
+    (mcp_server.tools.TOOLSETS, plus `core` and `all`); `fleetnav serve` defaults to `core`."""
     holder: dict[str, FleetService] = {}
     run_thread = (not isinstance(service, FleetService)) if start is None else start
 
@@ -90,8 +92,9 @@ def build_server(service: FleetService | Callable[[], FleetService], *, read_onl
 
     server = FleetMCPServer(name=name, version=server_version(), instructions=INSTRUCTIONS, lifespan=lifespan,
                             token_verifier=token_verifier, auth=auth)
-    registrar = ToolRegistrar(server, read_only, [])
-    for register in TOOL_GROUPS:
+    registrar = ToolRegistrar(server, read_only, [], parse_toolsets(toolsets), CORE)
+    for group, register in TOOLSETS.items():
+        registrar.group = group
         register(registrar)
     register_resources(server, current)
     register_prompts(server)

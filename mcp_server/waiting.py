@@ -16,6 +16,7 @@ from mcp_server.app import app_of, run
 from sim import ClockMode
 
 CHUNK_S = 0.5  # sim seconds stepped per iteration on a paused clock
+PROGRESS_EVERY_S = 0.5  # wall seconds between progress notifications (≤ 2/s, however fast the loop turns)
 
 
 async def advance(ctx: Context, seconds: float, *, done: Callable[[], Awaitable[bool]] | None = None,
@@ -26,6 +27,7 @@ async def advance(ctx: Context, seconds: float, *, done: Callable[[], Awaitable[
     end = t0 + seconds
     wall_end = anyio.current_time() + max_wall_s
     now = t0
+    last_report = -PROGRESS_EVERY_S
     while True:
         if done is not None and await done():
             return True
@@ -37,4 +39,6 @@ async def advance(ctx: Context, seconds: float, *, done: Callable[[], Awaitable[
         else:
             await anyio.sleep(0.05)
             now = svc.snapshot.time
-        await ctx.report_progress(min(now - t0, seconds), seconds, message() if message else None)
+        if anyio.current_time() - last_report >= PROGRESS_EVERY_S:
+            last_report = anyio.current_time()
+            await ctx.report_progress(min(now - t0, seconds), seconds, message() if message else None)

@@ -60,7 +60,6 @@ def register(tool: ToolRegistrar) -> None:
         """Grade a built-in navigator on a challenge (BARN-style score per run, rubric, report files). Runs in
         the background in its own world; poll challenge_status, then challenge_report."""
         from fleet.grading import run_challenge as grade
-        from fleet.grading.challenge import challenge_file
         from planning import controller_names
         from sim.errors import unknown_name
 
@@ -69,7 +68,7 @@ def register(tool: ToolRegistrar) -> None:
         name = controller.removeprefix("builtin:")
         if name not in controller_names():
             raise unknown_name("controller", name, controller_names(), ErrorCode.INVALID_ARGUMENT)
-        src = svc.workspace.resolve(challenge) if challenge.endswith((".yaml", ".yml")) else challenge_file(challenge)
+        src = svc.workspace.named("challenges", challenge, "challenge")
         out = svc.workspace.resolve("challenge_results", write=True)
         total = runs or 1
 

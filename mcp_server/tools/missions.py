@@ -43,13 +43,13 @@ def _report_view(report: dict[str, Any], fmt: ResponseFormat) -> dict[str, Any]:
 
 def register(tool: ToolRegistrar) -> None:
     @tool(read_only=True, title="Validate a mission file")
-    async def validate_mission(ctx: Context, path: str = Field(description="mission YAML inside the workspace "
-                                                                           "(or configs/missions)")) -> MissionCheck:
+    async def validate_mission(ctx: Context, path: str = Field(
+            description="a shipped mission name or a mission YAML in the workspace")) -> MissionCheck:
         """Check a mission file against the schema (errors name the file, line and field)."""
         from fleet.missions import load_mission
 
         svc = app_of(ctx).service
-        src = svc.workspace.resolve(path)
+        src = svc.workspace.named("missions", path, "mission")
         m = await anyio.to_thread.run_sync(load_mission, src)
         return MissionCheck(sim_time=svc.sim_time, path=str(src), valid=True,
                             mission={"name": m.name, "world": m.world, "seed": m.seed, "time_limit": m.time_limit,
@@ -57,7 +57,8 @@ def register(tool: ToolRegistrar) -> None:
                                      "assertions": len(m.assertions)})
 
     @tool(read_only=False, title="Run a mission")
-    async def run_mission(ctx: Context, path: str = Field(description="mission YAML inside the workspace"),
+    async def run_mission(ctx: Context, path: str = Field(description="a shipped mission name (configs/missions) "
+                          "or a mission YAML in the workspace"),
                           seed: int | None = None, time_limit: float | None = Field(None, gt=0, le=36_000),
                           record: bool = Field(True, description="write recording.mcap next to the report")) \
             -> MissionJob:
@@ -67,7 +68,7 @@ def register(tool: ToolRegistrar) -> None:
 
         app = app_of(ctx)
         svc = app.service
-        src = svc.workspace.resolve(path)
+        src = svc.workspace.named("missions", path, "mission")
         out = svc.workspace.resolve(f"runs/{src.stem}", write=True)
         runner = jobs_of(app)
         req = RunRequest(str(src), seed, str(out / f"run{len(runner.jobs) + 1}"), record, time_limit)

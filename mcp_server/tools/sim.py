@@ -53,17 +53,19 @@ class Done(Answer):
 
 
 class HealthOut(Answer):
-    alive: bool = Field(description="false: the sim thread died; every world call fails with SIM_DEAD")
-    dead_reason: str | None = Field(description="why it died")
-    command: str | None = Field(description="the command the sim thread runs now")
-    busy_for_s: float | None = Field(description="wall seconds the current command has run")
-    command_errors: int = Field(description="commands that failed with INTERNAL (the world kept running)")
-    overruns: int = Field(description="commands stopped at their wall budget (TIMEOUT)")
+    """alive false: every world call fails with SIM_DEAD (dead_reason says why; restart_simulation)."""
+
+    alive: bool
+    dead_reason: str | None
+    command: str | None
+    busy_for_s: float | None
+    command_errors: int
+    overruns: int
     tick_errors: int
     last_error: str | None
     restarts: int
     recent_errors: list[str]
-    last_snapshot: str | None = Field(description="the snapshot restart_simulation would restore")
+    last_snapshot: str | None
 
 
 class Restarted(Answer):

@@ -8,6 +8,7 @@ from typing import Any, Literal
 from mcp.server.mcpserver import Context
 from pydantic import BaseModel, Field
 
+from fleet.deadlock import DeadlockConfig
 from mcp_server.app import app_of, client_of, run
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat, fleet_summary
@@ -180,10 +181,11 @@ def register(tool: ToolRegistrar) -> None:
 
     @tool(read_only=False, idempotent=True, title="Configure deadlock handling")
     async def configure_deadlocks(ctx: Context, policy: Literal["priority", "replan", "none"] | None = None,
-                                  settings: dict[str, float] | None = None) -> Result:
+                                  settings: DeadlockConfig | None = Field(
+                                      None, description="thresholds; omitted fields keep their values")) -> Result:
         """Change the deadlock policy (priority | replan | none) or its thresholds (wait_s, stall_s, ...)."""
         svc = app_of(ctx).service
-        kw = dict(settings or {}) | ({"policy": policy} if policy else {})
+        kw = (settings.model_dump(exclude_unset=True) if settings else {}) | ({"policy": policy} if policy else {})
         return Result(sim_time=svc.sim_time, result=await run(ctx, svc.configure_deadlocks, **kw))
 
     @tool(read_only=False, title="Visualise the robot network")

@@ -18,6 +18,7 @@ from mcp_server.shaping import OVERWRITE, Answer, ResponseFormat
 from planning import render_map
 from planning.grid import OccupancyGrid
 from sim import Pose2D
+from slam.types import SlamConfig
 
 
 class Slam(Answer):
@@ -61,13 +62,14 @@ def grid_png(grid: OccupancyGrid, max_px: int) -> tuple[bytes, float]:
 
 def register(tool: ToolRegistrar) -> None:
     @tool(read_only=False, title="Start SLAM")
-    async def start_slam(ctx: Context, robot: str, config: dict[str, Any] | None = Field(None, description=
+    async def start_slam(ctx: Context, robot: str, config: SlamConfig | None = Field(None, description=
                          "slam.SlamConfig sections: odometry, keyframes, loop_closure, pose_graph, mapping")) -> Slam:
         """Run online SLAM (KISS-ICP odometry, GTSAM pose graph with loop closures, occupancy mapping) on the
         robot's lidar from now on; drive the robot around, then read slam_status / get_slam_map."""
         svc = app_of(ctx).service
-        map_resolution(config)
-        return Slam(sim_time=svc.sim_time, slam=await run(ctx, svc.start_slam, robot, config))
+        cfg = config.model_dump(exclude_unset=True) if config is not None else None
+        map_resolution(cfg)
+        return Slam(sim_time=svc.sim_time, slam=await run(ctx, svc.start_slam, robot, cfg))
 
     @tool(read_only=False, idempotent=True, title="Stop SLAM")
     async def stop_slam(ctx: Context, robot: str) -> Slam:

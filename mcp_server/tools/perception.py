@@ -15,6 +15,7 @@ from mcp_server.imaging import image_result
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer
 from mcp_server.waiting import advance
+from sim.perception.types import EkfConfig
 
 
 class Detections(Answer):
@@ -108,12 +109,13 @@ def register(tool: ToolRegistrar) -> None:
         return Result(sim_time=svc.sim_time, result=await run(ctx, svc.finish_calibration, cal["id"]))
 
     @tool(read_only=False, title="Start odometry + IMU fusion")
-    async def start_sensor_fusion(ctx: Context, robot: str, config: dict[str, float] | None = Field(
-                                  None, description="EKF noise settings (sim.perception.EkfConfig)")) -> Result:
+    async def start_sensor_fusion(ctx: Context, robot: str, config: EkfConfig | None = Field(
+                                  None, description="EKF noise settings; omitted: defaults")) -> Result:
         """Fuse wheel odometry and the gyro in an EKF from now on; sensor_fusion_status compares it with
         ground truth and raw odometry."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.start_fusion, robot, config))
+        cfg = config.model_dump(exclude_unset=True) if config is not None else None
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.start_fusion, robot, cfg))
 
     @tool(read_only=True, title="Sensor fusion status")
     async def sensor_fusion_status(ctx: Context, robot: str) -> Result:

@@ -54,7 +54,7 @@ async def test_slam_bad_input(client, service: FleetService) -> None:
     service.spawn_robot("r1", Pose2D(-5.0, -5.5, 0.0))
     await err(client, "slam_status", {"robot": "r1"}, "NOT_FOUND")
     await err(client, "start_slam", {"robot": "ghost"}, "UNKNOWN_ROBOT")
-    await err(client, "start_slam", {"robot": "r1", "config": {"keyframes": {"distance": -1}}}, "INVALID_CONFIG")
+    await err(client, "start_slam", {"robot": "r1", "config": {"keyframes": {"distance": -1}}}, "INVALID_ARGUMENT")
     await err(client, "stop_slam", {"robot": "r1"}, "NOT_FOUND")
     await err(client, "save_slam_map", {"robot": "r1", "path": "maps/x.yaml"}, "NOT_FOUND")
     await err(client, "save_slam_map", {"robot": "r1", "path": "../x.yaml"}, "PATH_NOT_ALLOWED")

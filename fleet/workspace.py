@@ -32,6 +32,15 @@ def default_root() -> Path:
     return Path(data) / "fleetnav" / "workspace"
 
 
+def _checked(path: str | Path) -> str:
+    """A path argument as text: no NUL or other control characters, a sane length (else INVALID_ARGUMENT)."""
+    text = str(path)
+    if len(text) > 1024 or any(ord(c) < 32 or c == "\x7f" for c in text):
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unusable path {text[:40]!r}",
+                         "a path of printable characters, at most 1024 long")
+    return text
+
+
 def _inside(p: Path, root: Path) -> bool:
     return p == root or root in p.parents
 
@@ -59,7 +68,7 @@ class Workspace:
         return _inside(full, self.root) or _inside(full, self.shipped)
 
     def read(self, path: str | Path, what: str = "file", *, allow_dir: bool = False) -> Path:
-        p = Path(str(path).removeprefix("file://"))
+        p = Path(_checked(path).removeprefix("file://"))
         cands = [p] if p.is_absolute() else [self.root / p, self.outputs / p]
         for c in cands:
             full = c.resolve()
@@ -76,6 +85,7 @@ class Workspace:
         """A shipped world name, or an SDF/.world path inside the workspace."""
         from fleet.paths import world_file
 
+        _checked(name_or_path)
         if NAME_RE.match(name_or_path) and not name_or_path.endswith((".world", ".sdf")):
             return world_file(name_or_path)
         if not name_or_path.endswith((".world", ".sdf")):
@@ -87,6 +97,7 @@ class Workspace:
         """A shipped robot model name, or a robot YAML path inside the workspace."""
         from fleet.paths import robot_file
 
+        _checked(name_or_path)
         if NAME_RE.match(name_or_path) and not name_or_path.endswith((".yaml", ".yml")):
             return robot_file(name_or_path)
         if not name_or_path.endswith((".yaml", ".yml")):
@@ -97,6 +108,7 @@ class Workspace:
     def named(self, folder: str, name_or_path: str, what: str) -> Path:
         """A shipped config by name (configs/<folder>/<name>.yaml, as the CLI resolves it) or a YAML path
         inside the workspace."""
+        _checked(name_or_path)
         if NAME_RE.match(name_or_path) and not name_or_path.endswith((".yaml", ".yml")):
             cand = self.shipped / folder / f"{name_or_path}.yaml"
             if cand.is_file():
@@ -110,7 +122,7 @@ class Workspace:
 
     def write_path(self, path: str | Path) -> Path:
         """Where a write of `path` goes: inside the outputs area, never over a file the server did not write."""
-        p = Path(path)
+        p = Path(_checked(path))
         if p.is_absolute():
             full = p.resolve()
         else:
@@ -128,7 +140,7 @@ class Workspace:
 
     def permit_overwrite(self, path: str | Path) -> None:
         """The caller said `overwrite: true`: the next write of `path` may replace an existing file."""
-        p = Path(path)
+        p = Path(_checked(path))
         rel = Path(*p.parts[1:]) if p.parts[:1] == ("outputs",) else p
         full = p.resolve() if p.is_absolute() else (self.outputs / rel).resolve()
         if _inside(full, self.outputs.resolve() if self.outputs.exists() else self.outputs):

@@ -204,14 +204,17 @@ def register(tool: ToolRegistrar) -> None:
     async def validate_world(ctx: Context, world: str = Field(description="a shipped world name or an SDF path "
                                                                           "inside the workspace")) -> WorldCheck:
         """Parse an SDF world without loading it: models, obstacles, spawn points, unsupported elements."""
-        from fleet.paths import world_file
         from sim import parse_sdf
+        from sim.read_policy import policy
 
         svc = app_of(ctx).service
-        path = world_file(world) if not world.endswith((".world", ".sdf")) else svc.workspace.resolve(world)
-        if not path.is_file():
-            raise FleetError(ErrorCode.NOT_FOUND, f"no world file '{world}'", "call list_worlds for shipped worlds")
-        d = await anyio.to_thread.run_sync(parse_sdf, str(path))  # parsing needs no world: off the sim thread
+        path = svc.workspace.world(world)
+
+        def parse() -> Any:
+            with policy(svc.workspace.readable):  # includes and meshes stay inside the workspace too
+                return parse_sdf(str(path))
+
+        d = await anyio.to_thread.run_sync(parse)  # parsing needs no world: off the sim thread
         return WorldCheck(sim_time=svc.sim_time, path=str(path), world=d.name, sdf_version=d.sdf_version,
                           models=len(d.models), obstacles=len(d.obstacle_models()),
                           spawn_points=[s.name for s in d.spawn_points], unsupported=list(d.unsupported)[:50])

@@ -82,7 +82,7 @@ async def test_progress_is_rate_limited(client: Client, service: FleetService) -
     elapsed = time.monotonic() - t0
     assert not r.is_error
     # 60 chunks of 0.5 s sim were stepped; a slower machine only raises the allowance (not a timing assert)
-    assert 1 <= len(stamps) <= 2 * elapsed + 1, (len(stamps), elapsed)
+    assert 1 <= len(stamps) <= 2 * elapsed + 2, (len(stamps), elapsed)  # ≤ 2/s plus the final one
 
 
 @pytest.mark.anyio

@@ -1,6 +1,7 @@
 """MCP front door: tool latency (p50/p99) in memory and over stdio, next to the same FleetService operation
-called directly (the baseline, measured in the same run), and response sizes per response_format for a
-100-robot fleet (tokens ≈ characters of the JSON text / 4).
+called directly (the baseline, measured in the same run; overhead = memory p50 − direct p50), response sizes
+per response_format for a 100-robot fleet (tokens ≈ characters of the JSON text / 4), and the o200k tokens of
+tools/list per toolset (the wire JSON an assistant reads; bpe-openai's bundled o200k_base vocabulary).
 
     .venv/bin/python benchmarks/mcp.py            # 50 calls per tool
     .venv/bin/python benchmarks/mcp.py --quick    # 10 calls per tool
@@ -83,8 +84,25 @@ async def bench_client(c: Client, n: int) -> dict[str, list[float]]:
     return out
 
 
+async def toolset_tokens(svc: FleetService) -> list[tuple[str, int, int, int]]:
+    """(toolset, tools, o200k tokens of tools/list, characters) per toolset, plus core and all."""
+    import bpe_openai
+
+    from mcp_server.tools import TOOLSETS
+
+    enc = bpe_openai.get_encoding("o200k_base")
+    rows = []
+    for ts in ("core", "all", *TOOLSETS):
+        async with Client(build_server(svc, toolsets=ts)) as c:
+            res = await c.list_tools()
+            wire = res.model_dump_json(by_alias=True, exclude_none=True)
+            rows.append((ts, len(res.tools), len(enc.encode(wire)), len(wire)))
+    return rows
+
+
 async def run(n: int, robots: int) -> None:
     svc = FleetService(FleetConfig(world="empty", seed=0))
+    tokens = await toolset_tokens(svc)
     server = build_server(svc)
     async with Client(server) as c:
         await c.call_tool("spawn_fleet", fleet(robots))
@@ -106,7 +124,7 @@ async def run(n: int, robots: int) -> None:
             sizes.append((tool, n_s, n_n, n_f))
     svc.close()
     params = StdioServerParameters(command=str(Path(sys.executable).with_name("fleetnav")),
-                                   args=["serve", "--world", "empty", "--workspace", "/tmp"])
+                                   args=["serve", "--world", "empty", "--workspace", "/tmp", "--toolsets", "all"])
     async with Client(params) as c:
         await c.call_tool("spawn_fleet", fleet(robots))
         await c.call_tool("step_simulation", {"steps": 20})
@@ -114,16 +132,22 @@ async def run(n: int, robots: int) -> None:
 
     print(f"Tool latency, ms ({robots} robots, empty world, {n} calls each; direct = the FleetService call alone,"
           " stdio = `fleetnav serve` in real time)")
-    print(f"{'tool':20s} {'direct p50':>10s} {'memory p50':>10s} {'memory p99':>10s} {'stdio p50':>10s} "
-          f"{'stdio p99':>10s}")
+    print(f"{'tool':20s} {'direct p50':>10s} {'memory p50':>10s} {'overhead':>9s} {'memory p99':>10s} "
+          f"{'stdio p50':>10s} {'stdio p99':>10s}")
     for tool, _, _ in CASES:
-        print(f"{tool:20s} {statistics.median(direct[tool]):10.2f} {pct(mem[tool], .5):10.2f} "
+        d = statistics.median(direct[tool])
+        print(f"{tool:20s} {d:10.2f} {pct(mem[tool], .5):10.2f} {pct(mem[tool], .5) - d:9.2f} "
               f"{pct(mem[tool], .99):10.2f} {pct(stdio[tool], .5):10.2f} {pct(stdio[tool], .99):10.2f}")
+    print("\ntools/list per toolset (o200k tokens of the wire JSON; `fleetnav serve` defaults to core)")
+    print(f"{'toolset':12s} {'tools':>5s} {'tokens':>7s} {'chars':>7s}")
+    for ts, n_tools, n_tok, n_chars in tokens:
+        print(f"{ts:12s} {n_tools:5d} {n_tok:7d} {n_chars:7d}")
     print("\nResponse size, characters of the JSON text (≈ tokens × 4), 100 robots")
     print(f"{'tool':20s} {'summary':>9s} {'normal':>9s} {'full':>9s}   summary tokens")
     for tool, s, nrm, f in sizes:
         print(f"{tool:20s} {s:9d} {nrm:9d} {f:9d}   {s / 4:8.0f}")
-    print(json.dumps({"latency_ms": {t: {"direct_p50": statistics.median(direct[t]), "memory_p50": pct(mem[t], .5),
+    print(json.dumps({"tools_list_tokens": {r[0]: {"tools": r[1], "tokens": r[2]} for r in tokens},
+                      "latency_ms": {t: {"direct_p50": statistics.median(direct[t]), "memory_p50": pct(mem[t], .5),
                                          "memory_p99": pct(mem[t], .99), "stdio_p50": pct(stdio[t], .5),
                                          "stdio_p99": pct(stdio[t], .99)} for t, _, _ in CASES},
                       "sizes_chars": {r[0]: dict(zip(("summary", "normal", "full"), r[1:], strict=True))

@@ -39,4 +39,5 @@ class FleetConfig(StrictModel):
                                       description="multi-robot avoidance plugin; {type: none} disables it")
     deadlock: dict[str, Any] = Field(default_factory=dict,
                                      description="fleet.deadlock.DeadlockConfig fields (policy, thresholds)")
-    workspace: str = Field(".", description="the only directory file arguments may read or write")
+    workspace: str | None = Field(None, description="the only directory file arguments may read (writes go to its "
+                                  "outputs/ folder); omitted: a dedicated folder, ~/.local/share/fleetnav/workspace")

@@ -13,7 +13,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from pydantic import ValidationError
+
 from fleet.core import ServiceCore
+from fleet.validation import summarize
 from sim.errors import ErrorCode, FleetError
 from sim.perception import (
     Ekf,
@@ -126,8 +129,8 @@ class CalibrationOps(ServiceCore):
         """Fuse the robot's wheel odometry and gyro in an EKF from now on (starting at its true pose)."""
         try:
             cfg = EkfConfig.model_validate(config or {})
-        except ValueError as exc:
-            raise FleetError(ErrorCode.INVALID_CONFIG, f"ekf settings: {exc}",
+        except ValidationError as exc:
+            raise FleetError(ErrorCode.INVALID_CONFIG, f"ekf settings: {summarize(exc)}",
                              f"fields: {', '.join(EkfConfig.model_fields)}") from exc
 
         def do() -> dict[str, Any]:

@@ -26,6 +26,7 @@ from fleet.formations import (
 )
 from fleet.swarm import BehaviourManager, behaviour_names
 from fleet.sync import Barrier
+from fleet.validation import summarize
 from planning import LayeredCostmap
 from sim.errors import ErrorCode, FleetError
 from sim.types import Pose2D
@@ -312,5 +313,5 @@ def _validated(model: type[DeadlockConfig], data: dict[str, Any], section: str) 
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        raise FleetError(ErrorCode.INVALID_CONFIG, f"{section} settings: {exc}",
+        raise FleetError(ErrorCode.INVALID_CONFIG, f"{section} settings: {summarize(exc)}",
                          f"fields: {', '.join(model.model_fields)}") from exc

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from pydantic import ValidationError
+
+from fleet import validation
 from fleet.core import ServiceCore
 from planning import LayeredCostmap, OccupancyGrid, PlanResult, get_planner, rasterize_world
 from planning.navigator import Navigator, NavigatorConfig, make_navigator
@@ -53,8 +56,8 @@ class NavOps(ServiceCore):
         merged = {**self.config.navigation, **(overrides or {})}
         try:
             return NavigatorConfig.model_validate(merged)
-        except ValueError as exc:
-            raise FleetError(ErrorCode.INVALID_CONFIG, f"navigation settings: {exc}") from exc
+        except ValidationError as exc:
+            raise FleetError(ErrorCode.INVALID_CONFIG, f"navigation settings: {validation.summarize(exc)}") from exc
 
     def make_navigator(self, robot: str, overrides: dict[str, Any] | None = None) -> Navigator:
         return make_navigator(self.nav_config(overrides), costmap=self.costmap_for(robot),
@@ -64,10 +67,15 @@ class NavOps(ServiceCore):
 
     def submit_task(self, type_name: str, robot: str, params: dict[str, Any] | None = None, *,
                     priority: int = 0, client: str = "default") -> dict[str, Any]:
-        """Queue a task; returns its id at once (long actions report through task_status)."""
+        """Queue a task; returns its id at once (long actions report through task_status). Refused while the
+        robot (or the fleet) is e-stopped: a queued goal must not drive off on re-arm."""
+        validation.params("params", params or {}, self.bounds)
 
         def do() -> dict[str, Any]:
             self.registry.get(robot)
+            if self.safety.is_estopped(robot):
+                raise FleetError(ErrorCode.ESTOPPED, f"robot '{robot}' is e-stopped; no task is accepted",
+                                 "rearm it (or the fleet) first, then send the goal again")
             holder = self.safety.holder(robot)
             if holder is not None and holder != client:
                 raise FleetError(ErrorCode.LEASE_HELD, f"robot '{robot}' is controlled by client '{holder}'",
@@ -99,6 +107,9 @@ class NavOps(ServiceCore):
     def plan_path(self, robot: str, goal: Pose2D, planner: str | None = None,
                   start: Pose2D | None = None) -> PlanResult:
         """Preview a plan for `robot` (nothing moves)."""
+        validation.pose("goal", goal, self.bounds)
+        if start is not None:
+            validation.pose("start", start, self.bounds)
 
         def do() -> PlanResult:
             s = start or self.world.robot_pose(robot)
@@ -110,8 +121,7 @@ class NavOps(ServiceCore):
 
     def add_keepout(self, polygon: list[tuple[float, float]]) -> int:
         """Forbid a polygonal zone for every robot's planner (and robots spawned later)."""
-        if len(polygon) < 3:
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, "a keep-out zone needs at least 3 vertices")
+        polygon = validation.polygon("polygon", polygon, self.bounds)
 
         def do() -> int:
             self._keepouts.append([(float(x), float(y)) for x, y in polygon])

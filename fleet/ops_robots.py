@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
+from fleet import validation
 from fleet.core import ServiceCore
 from fleet.registry import RobotRecord
 from fleet.safety import AUTONOMY
@@ -24,7 +25,8 @@ class RobotOps(ServiceCore):
 
     def spawn_robot(self, name: str, pose: Pose2D, *, model: str | None = None,
                     fidelity: str | None = None, namespace: str | None = None) -> RobotView:
-        spec = self.default_spec(model)
+        validation.pose("pose", pose, self.bounds)
+        spec = self.default_spec(self.workspace.robot(model) if model is not None else None)
 
         def do() -> RobotView:
             self.world.spawn_robot(name, pose, spec=spec, fidelity=fidelity)  # type: ignore[arg-type]
@@ -64,6 +66,8 @@ class RobotOps(ServiceCore):
         the deadman timeout) unless renewed; it takes over the robot from any task or behaviour."""
         if duration is not None and not (math.isfinite(duration) and 0 < duration <= 3600):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"duration must be in (0, 3600] s, got {duration}")
+        validation.finite("v", v, validation.MAX_VELOCITY)
+        validation.finite("w", w, validation.MAX_VELOCITY)
 
         def do() -> CommandResult:
             self.registry.get(robot)

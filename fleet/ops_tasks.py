@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 from pydantic import ValidationError
 
+from fleet import validation
 from fleet.allocation import (
     METHODS,
     Allocation,
@@ -50,6 +51,7 @@ class TaskOps(ServiceCore):
     def follow_waypoints(self, robot: str, waypoints: Sequence[Pose2D | dict[str, Any]], *, mode: str = "sequence",
                          rounds: int | None = 1, dwell_s: float = 0.0, skip_failed: bool = False,
                          client: str = "default") -> dict[str, Any]:
+        validation.count("waypoints", len(waypoints), validation.MAX_WAYPOINTS, 1)
         return self._svc().submit_task("follow_waypoints", robot, {
             "waypoints": list(waypoints), "mode": mode, "rounds": rounds, "dwell_s": dwell_s,
             "skip_failed": skip_failed}, client=client)
@@ -57,6 +59,8 @@ class TaskOps(ServiceCore):
     def cover_area(self, robot: str, polygon: Sequence[XY], *, holes: Sequence[Sequence[XY]] = (),
                    tool_width: float = 0.5, overlap: float = 0.1, pattern: str = "boustrophedon",
                    min_coverage_pct: float = 0.0, client: str = "default") -> dict[str, Any]:
+        outline = validation.polygon("polygon", polygon, self.bounds)
+        validation.coverage(outline, tool_width)
         return self._svc().submit_task("cover_area", robot, {
             "polygon": [list(p) for p in polygon], "holes": [[list(p) for p in h] for h in holes],
             "tool_width": tool_width, "overlap": overlap, "pattern": pattern,
@@ -99,6 +103,10 @@ class TaskOps(ServiceCore):
                    earliest_start: float | None = None, deadline: float | None = None,
                    id: str | None = None) -> dict[str, Any]:
         """Queue a task for no robot in particular; `assign_tasks()` hands the queue out."""
+        validation.params("params", params or {}, self.bounds)
+        if len(self._unassigned) >= validation.MAX_TASKS:
+            raise FleetError(ErrorCode.LIMIT_EXCEEDED, f"the queue holds {validation.MAX_TASKS} tasks already",
+                             "assign_tasks first")
         req = make_request(parse_spec({"type": type_name, "params": params or {}, "priority": priority,
                                        "earliest_start": earliest_start, "deadline": deadline, "id": id}), self._svc())
 
@@ -121,6 +129,10 @@ class TaskOps(ServiceCore):
         Returns the assignment with each robot's order, planned paths, travel costs, ETAs and charge stops, and
         every task that could not be placed with the reason. Unless `dry_run`, the tasks (and charge stops)
         are submitted to the robots' task queues. Options: see AllocationOptions (cost, speed_factor, ...)."""
+        if tasks is not None:
+            validation.count("number of tasks", len(tasks), validation.MAX_TASKS)
+            for i, t in enumerate(tasks):
+                validation.params(f"tasks[{i}]", t, self.bounds)
         opts = _options(method, options)
         svc = self._svc()
         requests = (None if tasks is None else [make_request(parse_spec(t), svc) for t in tasks])

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fleet.workspace import Workspace
 from sim.errors import ErrorCode, FleetError
 from sim.resource_path import package_search_path
 from sim.resources import shipped_root
 from sim.robot_load import is_robot_text, load_robot_model
 from sim.urdf_robot import LoadedRobot
+
+# Workspace lives in fleet/workspace.py
+__all__ = ["CONFIGS", "ROOT", "Workspace", "robot_file", "robot_model", "world_file"]
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = shipped_root()  # the shipped configs (sim.resources: found through importlib.resources)
@@ -62,18 +66,3 @@ def robot_model(model: str, base: Path | None = None, package_path: list[str] | 
     search = package_search_path(list(package_path or []))
     return load_robot_model(model if is_robot_text(model) else robot_file(model, base), search)
 
-
-class Workspace:
-    """File arguments from front doors resolve inside `root` (shipped configs may be read too)."""
-
-    def __init__(self, root: str | Path) -> None:
-        self.root = Path(root).resolve()
-
-    def resolve(self, path: str | Path, *, write: bool = False) -> Path:
-        p = Path(path)
-        full = (p if p.is_absolute() else self.root / p).resolve()
-        allowed = [self.root] if write else [self.root, CONFIGS.resolve()]
-        if not any(full == a or a in full.parents for a in allowed):
-            raise FleetError(ErrorCode.PATH_NOT_ALLOWED, f"path '{path}' is outside the workspace {self.root}",
-                             "use a path inside the workspace directory")
-        return full

@@ -25,21 +25,32 @@ def serve(
     token: str | None = typer.Option(None, "--token", envvar="FLEETNAV_MCP_TOKEN",
                                      help="http: bearer token clients must send (≥ 16 characters)"),
     world: str = typer.Option("robot_arena", "--world", help="a shipped world name or an SDF file"),
-    workspace: Path = typer.Option(Path("."), "--workspace", help="the only directory file arguments may use"),
+    workspace: Path | None = typer.Option(None, "--workspace", help="the only directory file arguments may read "
+                                          "(writes: its outputs/); default ~/.local/share/fleetnav/workspace"),
     seed: int = typer.Option(0, "--seed"),
     fidelity: str = typer.Option("kinematic", "--fidelity", help="kinematic or dynamic"),
     speed: float = typer.Option(1.0, "--speed", min=0.01, max=1000, help="real-time factor of the clock"),
     read_only: bool = typer.Option(False, "--read-only", help="expose only tools that change nothing"),
     live: bool = typer.Option(False, "--live", help="also serve a Foxglove WebSocket live view"),
     live_port: int = typer.Option(8765, "--live-port"),
+    toolsets: str = typer.Option("core", "--toolsets", help="tool groups to expose: core (default, ≤ 30 tools), all, "
+                                 "or any of sim,world,robots,sensors,nav,fleet,slam,perception,debug,records,"
+                                 "missions,challenges (comma-separated)"),
 ) -> None:
     """Serve the fleet to AI assistants over MCP (stdio, or streamable HTTP)."""
     if transport not in ("stdio", "http"):
         _fail(f"--transport must be stdio or http, got '{transport}'")
     if fidelity not in ("kinematic", "dynamic"):
         _fail(f"--fidelity must be kinematic or dynamic, got '{fidelity}'")
-    if not workspace.is_dir():
+    if workspace is not None and not workspace.is_dir():
         _fail(f"--workspace {workspace} is not a directory")
+    from mcp_server.tools import parse_toolsets
+    from sim.errors import FleetError
+
+    try:
+        parse_toolsets(toolsets)
+    except FleetError as exc:
+        _fail(f"--toolsets: {exc.message} ({exc.hint})")
     from mcp_server.auth import MIN_TOKEN_CHARS, is_loopback
 
     if transport == "http" and not is_loopback(host) and not token:
@@ -49,11 +60,12 @@ def serve(
     if transport == "stdio":
         _protect_stdout()
     raise typer.Exit(_run(transport, host, port, path, token, world, workspace, seed, fidelity, speed, read_only,
-                          live, live_port))
+                          live, live_port, toolsets))
 
 
-def _run(transport: str, host: str, port: int, path: str, token: str | None, world: str, workspace: Path,
-         seed: int, fidelity: str, speed: float, read_only: bool, live: bool, live_port: int) -> int:
+def _run(transport: str, host: str, port: int, path: str, token: str | None, world: str, workspace: Path | None,
+         seed: int, fidelity: str, speed: float, read_only: bool, live: bool, live_port: int,
+         toolsets: str = "core") -> int:
     import anyio
 
     from fleet import FleetConfig, FleetService
@@ -64,7 +76,7 @@ def _run(transport: str, host: str, port: int, path: str, token: str | None, wor
     built: list[Any] = []
     try:  # built before serving, so a bad world fails with one clear line instead of a dead server
         svc = FleetService(FleetConfig(world=world, seed=seed, fidelity=fidelity,
-                                       workspace=str(workspace.resolve())))
+                                       workspace=str(workspace.resolve()) if workspace is not None else None))
     except FleetError as exc:
         _fail(f"{exc.code.value}: {exc.message}" + (f" ({exc.hint})" if exc.hint else ""))
     built.append(svc)
@@ -75,7 +87,7 @@ def _run(transport: str, host: str, port: int, path: str, token: str | None, wor
     kw: dict[str, Any] = {}
     if token:
         kw = {"token_verifier": StaticTokenVerifier(token), "auth": auth_settings(host, port)}
-    server = build_server(lambda: svc, read_only=read_only, start=True, speed=speed, **kw)
+    server = build_server(lambda: svc, read_only=read_only, start=True, speed=speed, toolsets=toolsets, **kw)
     try:
         if transport == "stdio":
             anyio.run(server.run_stdio_async)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+import weakref
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -15,14 +17,45 @@ if TYPE_CHECKING:
 class App:
     service: FleetService
     read_only: bool = False
-    client_id: str = "mcp"  # the client id MCP commands act under (leases, rate limits)
+    client_id: str = "mcp"  # prefix of the per-session client ids MCP commands act under (leases, rate limits)
     extras: dict[str, Any] = field(default_factory=dict)  # per-server state of tool groups (e.g. SLAM sessions)
+
+
+_SESSIONS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
+_COUNTER = itertools.count(1)
 
 
 def app_of(ctx: Context) -> App:
     app = ctx.request_context.lifespan_context
     assert isinstance(app, App), "the server was built without its lifespan"
     return app
+
+
+def client_of(ctx: Context) -> str:
+    """The client id this MCP caller acts under (leases, rate limits), so one client cannot drive, navigate
+    or release another's leased robot:
+
+    - the bearer token's identity on authenticated HTTP, as the prefix;
+    - a session handshake (stdio, streamable HTTP with a session): one id per session (`/s<n>`);
+    - the stateless 2026 protocol has no session: the client's declared name (`/c:<name>`) when it sent one,
+      else the prefix alone (give each client its own token to separate them).
+    """
+    from mcp.server.auth.middleware.auth_context import get_access_token
+    from mcp_types.version import MODERN_PROTOCOL_VERSIONS
+
+    token = get_access_token()
+    who = token.client_id if token is not None else app_of(ctx).client_id
+    conn = getattr(ctx.request_context.session, "_connection", None)
+    if conn is None:
+        return who
+    if conn.protocol_version in MODERN_PROTOCOL_VERSIONS:  # stateless: a new connection per request
+        params = conn.client_params
+        name = params.client_info.name if params is not None and params.client_info is not None else ""
+        return f"{who}/c:{name[:40]}" if name else who
+    sid = _SESSIONS.get(conn)
+    if sid is None:
+        sid = _SESSIONS[conn] = f"s{next(_COUNTER)}"
+    return f"{who}/{sid}"
 
 
 async def run(ctx: Context, fn: Any, *args: Any, **kwargs: Any) -> Any:

@@ -24,6 +24,11 @@ def register_resources(server: MCPServer, service: Callable[[], FleetService]) -
         snap = svc.snapshot
         return json.dumps({"sim_time": snap.time, **jsonable(fleet_summary(snap, svc.config.battery.low_threshold))})
 
+    @server.resource("fleetnav://health", name="sim_health", mime_type="application/json",
+                     description="Whether the sim thread is alive, what it runs, errors, overruns and why it died")
+    def sim_health() -> str:
+        return json.dumps(service().sim_health())
+
     @server.resource("fleetnav://map.png", name="map_image", mime_type="image/png",
                      description="The static map with robots, goals and debug markers (north up)")
     async def map_image() -> bytes:

@@ -17,8 +17,7 @@ from fleet import FleetService
 from mcp_server.app import App
 from mcp_server.registry import ToolRegistrar
 from mcp_server.resources import register_prompts, register_resources
-from mcp_server.tools import TOOL_GROUPS
-from sim.errors import FleetError
+from mcp_server.tools import CORE, TOOLSETS, parse_toolsets
 
 INSTRUCTIONS = """fleetnav runs a real PyBullet world with differential-drive robots. Every tool acts in the simulation
 and reports what happened with the sim time; errors carry a code and a hint for what to do next. Long actions
@@ -31,6 +30,8 @@ class FleetMCPServer(MCPServer):
     INVALID_ARGUMENT with a hint (the SDK's own text is a raw pydantic dump), FleetErrors lose the SDK's
     "Error executing tool" prefix, an unknown tool is NOT_FOUND."""
 
+    fleetnav_service: Callable[[], FleetService] | None = None
+
     async def call_tool(self, name: str, arguments: dict[str, Any], context: Context[Any, Any] | None = None
                         ) -> CallToolResult | InputRequiredResult:
         try:
@@ -38,8 +39,9 @@ class FleetMCPServer(MCPServer):
         except ToolError as exc:
             cause = exc.__cause__
             if isinstance(cause, ValidationError) and not isinstance(exc, UnexpectedToolError):  # the arguments
-                raise ToolError(invalid_arguments(name, cause)) from cause
-            if isinstance(cause, ToolError) and isinstance(cause.__cause__, FleetError):  # drop the SDK's prefix
+                stamp = f" | sim_time: {self.fleetnav_service().sim_time:.3f}" if self.fleetnav_service else ""
+                raise ToolError(invalid_arguments(name, cause) + stamp) from cause
+            if isinstance(cause, ToolError) and isinstance(cause.__cause__, Exception):  # drop the SDK's prefix
                 raise cause from cause.__cause__
             if str(exc).startswith("Unknown tool"):
                 raise ToolError(f"NOT_FOUND: unknown tool '{name}' | hint: list the tools (tools/list)") from exc
@@ -55,19 +57,31 @@ def invalid_arguments(tool: str, exc: ValidationError) -> str:
     return f"INVALID_ARGUMENT: {'; '.join(parts)} | hint: check the input schema of {tool}"
 
 
+def server_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("fleetnav")
+    except PackageNotFoundError:  # running from a source tree without an install
+        return "0.0.0+source"
+
+
 def build_server(service: FleetService | Callable[[], FleetService], *, read_only: bool = False,
                  name: str = "fleetnav", start: bool | None = None, speed: float = 1.0,
-                 token_verifier: TokenVerifier | None = None, auth: AuthSettings | None = None) -> MCPServer:
+                 token_verifier: TokenVerifier | None = None, auth: AuthSettings | None = None,
+                 toolsets: str | tuple[str, ...] = ("all",)) -> MCPServer:
     """The MCP server over `service` (or a factory called at startup). In read-only mode only non-mutating
     tools are exposed. `start` runs the service's sim thread in real time × `speed` at startup (default: when
     built from a factory, i.e. service mode; an instance is left as it is, e.g. batch-stepped by tests).
-    `token_verifier` + `auth` require bearer tokens on the HTTP transport."""
+    `token_verifier` + `auth` require bearer tokens on the HTTP transport. `toolsets` picks the tool groups
+    (mcp_server.tools.TOOLSETS, plus `core` and `all`); `fleetnav serve` defaults to `core`."""
     holder: dict[str, FleetService] = {}
     run_thread = (not isinstance(service, FleetService)) if start is None else start
 
     def current() -> FleetService:
         if "svc" not in holder:
             holder["svc"] = service if isinstance(service, FleetService) else service()
+            holder["svc"].read_only = read_only  # enforced by the service, not only by hiding tools
             if run_thread:
                 holder["svc"].start("realtime", speed)
         return holder["svc"]
@@ -76,12 +90,14 @@ def build_server(service: FleetService | Callable[[], FleetService], *, read_onl
     async def lifespan(_: MCPServer) -> AsyncIterator[App]:
         yield App(current(), read_only=read_only)
 
-    server = FleetMCPServer(name=name, instructions=INSTRUCTIONS, lifespan=lifespan, token_verifier=token_verifier,
-                            auth=auth)
-    registrar = ToolRegistrar(server, read_only, [])
-    for register in TOOL_GROUPS:
+    server = FleetMCPServer(name=name, version=server_version(), instructions=INSTRUCTIONS, lifespan=lifespan,
+                            token_verifier=token_verifier, auth=auth)
+    registrar = ToolRegistrar(server, read_only, [], parse_toolsets(toolsets), CORE)
+    for group, register in TOOLSETS.items():
+        registrar.group = group
         register(registrar)
     register_resources(server, current)
     register_prompts(server)
     server.fleetnav_tools = registrar.registered  # type: ignore[attr-defined]
+    server.fleetnav_service = current
     return server

@@ -160,3 +160,6 @@ def path_payload(path: np.ndarray, fmt: ResponseFormat, tolerance: float = 0.05)
     d["polyline"] = [[r3(float(x)), r3(float(y))] for x, y in simple]
     d["simplified_tolerance_m"] = tolerance
     return d
+
+# The `overwrite` parameter of every tool that writes a file (files the server wrote itself need no flag).
+OVERWRITE = Field(False, description="replace an existing file this server did not write")

@@ -16,6 +16,7 @@ from mcp_server.app import app_of, run
 from sim import ClockMode
 
 CHUNK_S = 0.5  # sim seconds stepped per iteration on a paused clock
+PROGRESS_EVERY_S = 0.5  # wall seconds between progress notifications (≤ 2/s, plus the final one)
 
 
 async def advance(ctx: Context, seconds: float, *, done: Callable[[], Awaitable[bool]] | None = None,
@@ -26,15 +27,24 @@ async def advance(ctx: Context, seconds: float, *, done: Callable[[], Awaitable[
     end = t0 + seconds
     wall_end = anyio.current_time() + max_wall_s
     now = t0
+    last_report, reported = -PROGRESS_EVERY_S, t0
+
+    async def report() -> None:
+        nonlocal last_report, reported
+        last_report, reported = anyio.current_time(), now
+        await ctx.report_progress(min(now - t0, seconds), seconds, message() if message else None)
+
     while True:
-        if done is not None and await done():
-            return True
-        if now >= end - 1e-9 or anyio.current_time() > wall_end:
-            return False
+        finished = done is not None and await done()
+        if finished or now >= end - 1e-9 or anyio.current_time() > wall_end:
+            if now > reported:  # the final progress, even when the last one was sent < 0.5 s ago
+                await report()
+            return finished
         if svc.clock.mode is ClockMode.PAUSED or not svc.threaded:  # nobody else steps it: step it here
             steps = max(1, round(min(CHUNK_S, end - now) * svc.world.physics_hz))
             now = await run(ctx, svc.step, steps)
         else:
             await anyio.sleep(0.05)
             now = svc.snapshot.time
-        await ctx.report_progress(min(now - t0, seconds), seconds, message() if message else None)
+        if anyio.current_time() - last_report >= PROGRESS_EVERY_S:
+            await report()

@@ -26,6 +26,7 @@ class ErrorCode(StrEnum):
     UNSUPPORTED = "UNSUPPORTED"
     BUSY = "BUSY"
     TIMEOUT = "TIMEOUT"
+    SIM_DEAD = "SIM_DEAD"
     INTERNAL = "INTERNAL"
 
 

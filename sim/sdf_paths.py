@@ -9,6 +9,7 @@ from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 from sim.errors import ErrorCode, FleetError
+from sim.read_policy import allowed
 from sim.resources import shipped
 from sim.sdf_xml import Node, parse_xml
 
@@ -73,7 +74,7 @@ def resolve_uri(uri: str, base_dir: Path, search: list[Path]) -> Path | None:
     else:
         p = Path(uri) if Path(uri).is_absolute() else base_dir / uri
     p = p.resolve()
-    return p if p.exists() else None
+    return p if p.exists() and allowed(p) else None  # refused by the read policy = missing
 
 
 def model_sdf_file(model_dir: Path) -> Path:

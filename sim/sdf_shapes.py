@@ -13,6 +13,7 @@ import numpy as np
 import pybullet as p
 
 from sim.errors import ErrorCode, FleetError
+from sim.read_policy import allowed
 from sim.resources import shipped
 from sim.types import Box, Collision, Cylinder, Geometry, Link, Mesh, Plane, Pose3D, Sphere, Visual
 
@@ -114,7 +115,8 @@ def ground_texture_file(world_material: str | None, link: Link) -> str | None:
     planes = [v for v in link.visuals if v.geometry.kind == "plane"]
     if not planes:
         return None
-    if world_material and Path(world_material).suffix.lower() in IMAGE_SUFFIXES and Path(world_material).is_file():
+    if world_material and Path(world_material).suffix.lower() in IMAGE_SUFFIXES and Path(world_material).is_file() \
+            and allowed(Path(world_material).resolve()):
         return world_material
     if world_material or any(v.material for v in planes):
         return str(DEFAULT_TEXTURE)

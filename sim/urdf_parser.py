@@ -13,6 +13,7 @@ from xml.parsers import expat
 
 from sim.errors import ErrorCode, FleetError
 from sim.inertia import Inertia
+from sim.read_policy import allowed, policy_active
 from sim.types import Box, Cylinder, Geometry, Mesh, Pose3D, Sphere
 from sim.urdf_model import (
     JOINT_TYPES,
@@ -137,6 +138,8 @@ class _Reader:
             uri = shape.attrib.get("filename", "")
             path = uri.removeprefix("file://")
             resolved = str(base_dir / path) if not uri.startswith("package://") else uri
+            if not uri.startswith("package://") and not readable(Path(resolved)):
+                raise self.error(shape, f"cannot find mesh '{uri}'", "meshes must be inside the workspace")
             return Mesh(uri, resolved, self.vec3(shape, "scale", (1.0, 1.0, 1.0)))
         raise self.error(shape, f"unknown geometry <{shape.tag}>", "use box, cylinder, sphere or mesh")
 
@@ -316,3 +319,8 @@ def parse_urdf(source: str | Path, *, name: str = "<string>", base_dir: Path | N
         name, base_dir = str(path), path.resolve().parent
     reader = _Reader(name)
     return reader.robot(reader.tree(text), base_dir)
+
+
+def readable(path: Path) -> bool:
+    """Under a read policy a mesh must exist and be allowed (both failures answer alike); else anything goes."""
+    return not policy_active() or (path.resolve().is_file() and allowed(path.resolve()))

@@ -49,7 +49,7 @@ def register(tool: ToolRegistrar) -> None:
             out.append({"name": ch.name, "description": ch.description, "world": ch.world,
                         "arena": ch.arena.model_dump() if ch.arena else None, "time_limit": ch.time_limit,
                         "runs": ch.runs, "success_radius": ch.success_radius})
-        return Challenges(sim_time=svc.snapshot.time, challenges=out)
+        return Challenges(sim_time=svc.sim_time, challenges=out)
 
     @tool(read_only=False, title="Run a navigation challenge")
     async def run_challenge(ctx: Context, challenge: str = Field(description="a shipped challenge name, or a "
@@ -60,7 +60,6 @@ def register(tool: ToolRegistrar) -> None:
         """Grade a built-in navigator on a challenge (BARN-style score per run, rubric, report files). Runs in
         the background in its own world; poll challenge_status, then challenge_report."""
         from fleet.grading import run_challenge as grade
-        from fleet.grading.challenge import challenge_file
         from planning import controller_names
         from sim.errors import unknown_name
 
@@ -69,7 +68,7 @@ def register(tool: ToolRegistrar) -> None:
         name = controller.removeprefix("builtin:")
         if name not in controller_names():
             raise unknown_name("controller", name, controller_names(), ErrorCode.INVALID_ARGUMENT)
-        src = svc.workspace.resolve(challenge) if challenge.endswith((".yaml", ".yml")) else challenge_file(challenge)
+        src = svc.workspace.named("challenges", challenge, "challenge")
         out = svc.workspace.resolve("challenge_results", write=True)
         total = runs or 1
 
@@ -84,7 +83,7 @@ def register(tool: ToolRegistrar) -> None:
                          progress=on_run)
 
         job = jobs_of(app).start("challenge", str(src), work)
-        return ChallengeJob(sim_time=svc.snapshot.time, job=job_ref(job))
+        return ChallengeJob(sim_time=svc.sim_time, job=job_ref(job))
 
     @tool(read_only=True, title="Challenge status")
     async def challenge_status(ctx: Context, job_id: str, wait_s: float = Field(0.0, ge=0, le=600, description=
@@ -108,5 +107,5 @@ def register(tool: ToolRegistrar) -> None:
             raise FleetError(ErrorCode.BUSY if job.state == "running" else ErrorCode.NOT_FOUND,
                              f"job {job_id} has no report ({job.state}{': ' + job.error if job.error else ''})",
                              "poll challenge_status until it has finished")
-        return ChallengeJob(sim_time=app.service.snapshot.time,
+        return ChallengeJob(sim_time=app.service.sim_time,
                             job={"id": job.id, "report": _report_view(job.result.to_dict(), response_format)})

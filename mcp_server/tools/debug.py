@@ -50,14 +50,14 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         m = await run(ctx, svc.add_marker, kind, points, colour=colour, size=size, text=text, ns=ns,
                       lifetime_s=lifetime_s)
-        return Marker(sim_time=svc.snapshot.time, marker=m)
+        return Marker(sim_time=svc.sim_time, marker=m)
 
     @tool(read_only=False, destructive=True, idempotent=True, title="Clear debug markers")
     async def clear_debug_markers(ctx: Context, marker_id: str | None = Field(None, description="one marker; "
                                   "omitted: all (of `ns`)"), ns: str | None = None) -> Cleared:
         """Remove one marker, a namespace's markers, or all of them."""
         svc = app_of(ctx).service
-        return Cleared(sim_time=svc.snapshot.time, cleared=await run(ctx, svc.clear_markers, marker_id, ns))
+        return Cleared(sim_time=svc.sim_time, cleared=await run(ctx, svc.clear_markers, marker_id, ns))
 
     @tool(read_only=True, title="List debug markers")
     async def list_debug_markers(ctx: Context, ns: str | None = None,
@@ -65,7 +65,7 @@ def register(tool: ToolRegistrar) -> None:
         """Active (unexpired) markers, optionally of one namespace."""
         svc = app_of(ctx).service
         ms = await run(ctx, svc.list_markers, ns)
-        return Markers(sim_time=svc.snapshot.time, count=len(ms), markers=[m.to_dict() for m in ms[-limit:]])
+        return Markers(sim_time=svc.sim_time, count=len(ms), markers=[m.to_dict() for m in ms[-limit:]])
 
     @tool(read_only=False, title="Highlight a model")
     async def highlight_model(ctx: Context, name: str, colour: Colour = "yellow",
@@ -73,7 +73,7 @@ def register(tool: ToolRegistrar) -> None:
         """Outline a model or robot with a labelled box marker."""
         svc = app_of(ctx).service
         m = await run(ctx, svc.highlight_model, name, colour=colour, lifetime_s=lifetime_s)
-        return Marker(sim_time=svc.snapshot.time, marker=m)
+        return Marker(sim_time=svc.sim_time, marker=m)
 
     @tool(read_only=True, title="Recent events")
     async def recent_events(ctx: Context, since_seq: int = Field(0, ge=0), kinds: list[str] | None = None,
@@ -84,5 +84,5 @@ def register(tool: ToolRegistrar) -> None:
         evs = svc.events.since(since_seq, kinds, limit=100_000)
         if robot is not None:
             evs = [e for e in evs if robot in e.robots]
-        return Events(sim_time=svc.snapshot.time, events=[e.to_dict() for e in evs[-limit:]],
+        return Events(sim_time=svc.sim_time, events=[e.to_dict() for e in evs[-limit:]],
                       last_seq=svc.events.last_seq)

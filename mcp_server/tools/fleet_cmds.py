@@ -8,7 +8,8 @@ from typing import Any, Literal
 from mcp.server.mcpserver import Context
 from pydantic import BaseModel, Field
 
-from mcp_server.app import app_of, run
+from fleet.deadlock import DeadlockConfig
+from mcp_server.app import app_of, client_of, run
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat, fleet_summary
 from sim import Pose2D
@@ -70,7 +71,7 @@ def register(tool: ToolRegistrar) -> None:
                         radius=radius, fidelity=fidelity)
         if count > 20:
             out["poses"] = f"{len(out['poses'])} poses (list_robots for them)"
-        return Result(sim_time=svc.snapshot.time, result=out)
+        return Result(sim_time=svc.sim_time, result=out)
 
     @tool(read_only=True, title="Fleet status")
     async def fleet_status(ctx: Context, response_format: ResponseFormat = "summary") -> FleetStatus:
@@ -100,8 +101,8 @@ def register(tool: ToolRegistrar) -> None:
         app = app_of(ctx)
         out = await run(ctx, app.service.fleet_command, command, robots, target=target.pose() if target else None,
                         formation=formation, spacing=spacing, queue=queue, timeout_s=timeout_s,
-                        client=app.client_id)
-        return Result(sim_time=app.service.snapshot.time, result=out)
+                        client=client_of(ctx))
+        return Result(sim_time=app.service.sim_time, result=out)
 
     @tool(read_only=False, title="Queue a task")
     async def queue_task(ctx: Context, spec: TaskSpecIn) -> Result:
@@ -109,7 +110,7 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         out = await run(ctx, svc.queue_task, spec.type, spec.params, priority=spec.priority,
                         earliest_start=spec.earliest_start, deadline=spec.deadline, id=spec.id)
-        return Result(sim_time=svc.snapshot.time, result=out)
+        return Result(sim_time=svc.sim_time, result=out)
 
     @tool(read_only=False, title="Assign tasks")
     async def assign_tasks(ctx: Context, tasks: list[TaskSpecIn] | None = Field(None, description="omitted: the "
@@ -122,17 +123,17 @@ def register(tool: ToolRegistrar) -> None:
         cannot be placed (with why). Unless dry_run, the tasks are submitted (task ids in each assignment)."""
         app = app_of(ctx)
         specs = None if tasks is None else [t.model_dump(exclude_none=True) for t in tasks]
-        alloc = await run(ctx, app.service.assign_tasks, specs, robots, method, dry_run, client=app.client_id,
+        alloc = await run(ctx, app.service.assign_tasks, specs, robots, method, dry_run, client=client_of(ctx),
                           cost=cost)
         d = alloc.to_dict()
         d["assignments"] = [_assignment_view(a, response_format) for a in d["assignments"]]
-        return Result(sim_time=app.service.snapshot.time, result=d)
+        return Result(sim_time=app.service.sim_time, result=d)
 
     @tool(read_only=True, title="List docks")
     async def list_docks(ctx: Context) -> Items:
         """Charging docks of the world (dock_* models)."""
         svc = app_of(ctx).service
-        return Items(sim_time=svc.snapshot.time, items=await run(ctx, svc.list_docks))
+        return Items(sim_time=svc.sim_time, items=await run(ctx, svc.list_docks))
 
     @tool(read_only=False, title="Start a swarm behaviour")
     async def start_swarm_behaviour(ctx: Context, behaviour: Literal["flocking", "coverage", "formation",
@@ -140,14 +141,14 @@ def register(tool: ToolRegistrar) -> None:
                                     params: dict[str, Any] | None = None) -> Result:
         """Run a swarm behaviour on robots (all by default); swarm_status reports its metric over time."""
         app = app_of(ctx)
-        out = await run(ctx, app.service.start_behaviour, behaviour, robots, params, client=app.client_id)
-        return Result(sim_time=app.service.snapshot.time, result=out)
+        out = await run(ctx, app.service.start_behaviour, behaviour, robots, params, client=client_of(ctx))
+        return Result(sim_time=app.service.sim_time, result=out)
 
     @tool(read_only=False, idempotent=True, title="Stop a swarm behaviour")
     async def stop_swarm_behaviour(ctx: Context, behaviour_id: str) -> Result:
         """Stop a running swarm behaviour; its robots stop and its final metrics are kept."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.stop_behaviour, behaviour_id))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.stop_behaviour, behaviour_id))
 
     @tool(read_only=True, title="Swarm behaviour status")
     async def swarm_status(ctx: Context, behaviour_id: str | None = Field(None, description="omitted: all running"),
@@ -155,13 +156,13 @@ def register(tool: ToolRegistrar) -> None:
         """State and outcome metrics (e.g. order, spread, coverage, formation error) of behaviours."""
         svc = app_of(ctx).service
         out = await run(ctx, svc.behaviour_status, behaviour_id, history)
-        return Items(sim_time=svc.snapshot.time, items=out if isinstance(out, list) else [out])
+        return Items(sim_time=svc.sim_time, items=out if isinstance(out, list) else [out])
 
     @tool(read_only=True, title="Collision avoidance settings")
     async def get_collision_avoidance(ctx: Context) -> Result:
         """The multi-robot avoidance plugin in use and its settings."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.avoidance_settings))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.avoidance_settings))
 
     @tool(read_only=False, idempotent=True, title="Set collision avoidance")
     async def set_collision_avoidance(ctx: Context, plugin: Literal["orca", "none"] | None = Field(None, description=
@@ -170,21 +171,22 @@ def register(tool: ToolRegistrar) -> None:
                                       "time_horizon, neighbor_dist, max_neighbors, radius_margin")) -> Result:
         """Enable/disable multi-robot avoidance (orca | none) or tune it."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.set_avoidance, plugin, **(settings or {})))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.set_avoidance, plugin, **(settings or {})))
 
     @tool(read_only=True, title="Deadlock report")
     async def deadlock_report(ctx: Context) -> Result:
         """Deadlocks detected, resolved and open, the robots involved and the policy in use."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.deadlock_report))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.deadlock_report))
 
     @tool(read_only=False, idempotent=True, title="Configure deadlock handling")
     async def configure_deadlocks(ctx: Context, policy: Literal["priority", "replan", "none"] | None = None,
-                                  settings: dict[str, float] | None = None) -> Result:
+                                  settings: DeadlockConfig | None = Field(
+                                      None, description="thresholds; omitted fields keep their values")) -> Result:
         """Change the deadlock policy (priority | replan | none) or its thresholds (wait_s, stall_s, ...)."""
         svc = app_of(ctx).service
-        kw = dict(settings or {}) | ({"policy": policy} if policy else {})
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.configure_deadlocks, **kw))
+        kw = (settings.model_dump(exclude_unset=True) if settings else {}) | ({"policy": policy} if policy else {})
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.configure_deadlocks, **kw))
 
     @tool(read_only=False, title="Visualise the robot network")
     async def visualize_robot_network(ctx: Context, view: Literal["comms", "formation", "collision_zones", "tasks"]
@@ -195,4 +197,4 @@ def register(tool: ToolRegistrar) -> None:
         `network`, visible in get_occupancy_map and recordings); returns the edges."""
         svc = app_of(ctx).service
         out = await run(ctx, svc.network_markers, view, comm_range, robots, lifetime_s)
-        return Result(sim_time=svc.snapshot.time, result=out)
+        return Result(sim_time=svc.sim_time, result=out)

@@ -10,13 +10,15 @@ from mcp.server.mcpserver import Context
 from mcp_types import CallToolResult
 from pydantic import Field
 
+from fleet.validation import map_resolution
 from mcp_server.app import app_of, run
 from mcp_server.imaging import image_result
 from mcp_server.registry import ToolRegistrar
-from mcp_server.shaping import Answer, ResponseFormat
+from mcp_server.shaping import OVERWRITE, Answer, ResponseFormat
 from planning import render_map
 from planning.grid import OccupancyGrid
 from sim import Pose2D
+from slam.types import SlamConfig
 
 
 class Slam(Answer):
@@ -60,18 +62,20 @@ def grid_png(grid: OccupancyGrid, max_px: int) -> tuple[bytes, float]:
 
 def register(tool: ToolRegistrar) -> None:
     @tool(read_only=False, title="Start SLAM")
-    async def start_slam(ctx: Context, robot: str, config: dict[str, Any] | None = Field(None, description=
+    async def start_slam(ctx: Context, robot: str, config: SlamConfig | None = Field(None, description=
                          "slam.SlamConfig sections: odometry, keyframes, loop_closure, pose_graph, mapping")) -> Slam:
         """Run online SLAM (KISS-ICP odometry, GTSAM pose graph with loop closures, occupancy mapping) on the
         robot's lidar from now on; drive the robot around, then read slam_status / get_slam_map."""
         svc = app_of(ctx).service
-        return Slam(sim_time=svc.snapshot.time, slam=await run(ctx, svc.start_slam, robot, config))
+        cfg = config.model_dump(exclude_unset=True) if config is not None else None
+        map_resolution(cfg)
+        return Slam(sim_time=svc.sim_time, slam=await run(ctx, svc.start_slam, robot, cfg))
 
     @tool(read_only=False, idempotent=True, title="Stop SLAM")
     async def stop_slam(ctx: Context, robot: str) -> Slam:
         """Stop feeding scans; the map and trajectory stay available."""
         svc = app_of(ctx).service
-        return Slam(sim_time=svc.snapshot.time, slam=await run(ctx, svc.stop_slam, robot))
+        return Slam(sim_time=svc.sim_time, slam=await run(ctx, svc.stop_slam, robot))
 
     @tool(read_only=True, title="SLAM status")
     async def slam_status(ctx: Context, robot: str, response_format: ResponseFormat = "normal") -> Slam:
@@ -82,7 +86,7 @@ def register(tool: ToolRegistrar) -> None:
         if response_format == "summary":
             d = {k: d[k] for k in ("robot", "running", "scans", "keyframes", "pose", "pose_error_m",
                                    "loop_closures_accepted", "ate")}
-        return Slam(sim_time=svc.snapshot.time, slam=d)
+        return Slam(sim_time=svc.sim_time, slam=d)
 
     @tool(read_only=True, title="SLAM map image")
     async def get_slam_map(ctx: Context, robot: str | None = Field(None, description="a robot running SLAM"),
@@ -97,30 +101,32 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         grid = await run(ctx, svc.slam_map, robot) if robot else await run(ctx, svc.map_grid, map_name)
         png, mpp = grid_png(grid, max_px)
-        meta = GridImage(sim_time=svc.snapshot.time, source=f"slam of {robot}" if robot else f"map {map_name}",
+        meta = GridImage(sim_time=svc.sim_time, source=f"slam of {robot}" if robot else f"map {map_name}",
                          width=grid.width, height=grid.height, resolution=grid.resolution,
                          origin=[round(grid.origin[0], 4), round(grid.origin[1], 4)], metres_per_pixel=round(mpp, 5))
         return image_result(png, meta)
 
     @tool(read_only=False, title="Save the SLAM map")
     async def save_slam_map(ctx: Context, robot: str, path: str = Field(description="a .yaml path inside the "
-                            "workspace; the PGM goes next to it")) -> MapFile:
+                            "outputs area; the PGM goes next to it"), overwrite: bool = OVERWRITE) -> MapFile:
         """Write the robot's map as ROS map_server PGM + YAML; it is also loaded under the file's stem."""
         svc = app_of(ctx).service
-        return MapFile(sim_time=svc.snapshot.time, map=await run(ctx, svc.save_slam_map, robot, path))
+        if overwrite:
+            svc.workspace.permit_overwrite(path)
+        return MapFile(sim_time=svc.sim_time, map=await run(ctx, svc.save_slam_map, robot, path))
 
     @tool(read_only=False, title="Load a map")
     async def load_slam_map(ctx: Context, path: str = Field(description="map_server .yaml inside the workspace"),
                             name: str | None = None) -> MapFile:
         """Load a map_server map for localisation (and get_slam_map)."""
         svc = app_of(ctx).service
-        return MapFile(sim_time=svc.snapshot.time, map=await run(ctx, svc.load_slam_map, path, name))
+        return MapFile(sim_time=svc.sim_time, map=await run(ctx, svc.load_slam_map, path, name))
 
     @tool(read_only=True, title="List maps")
     async def list_maps(ctx: Context) -> MapList:
         """Maps loaded (or saved) in this session, with size and resolution."""
         svc = app_of(ctx).service
-        return MapList(sim_time=svc.snapshot.time, maps=await run(ctx, svc.list_maps))
+        return MapList(sim_time=svc.sim_time, maps=await run(ctx, svc.list_maps))
 
     @tool(read_only=False, title="Localise a robot in a map")
     async def localize_robot(ctx: Context, robot: str, map_name: str,
@@ -137,16 +143,16 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         init = Pose2D(x, y, yaw) if x is not None and y is not None else None
         out = await run(ctx, svc.localize, robot, map_name, init, sigma_xy=sigma_xy, sigma_yaw=sigma_yaw)
-        return Localisation(sim_time=svc.snapshot.time, localization=out)
+        return Localisation(sim_time=svc.sim_time, localization=out)
 
     @tool(read_only=True, title="Localisation status and quality")
     async def localization_status(ctx: Context, robot: str) -> Localisation:
         """Estimate, quality (particle spread, match score, ambiguity, converged) and error vs ground truth."""
         svc = app_of(ctx).service
-        return Localisation(sim_time=svc.snapshot.time, localization=await run(ctx, svc.localization_status, robot))
+        return Localisation(sim_time=svc.sim_time, localization=await run(ctx, svc.localization_status, robot))
 
     @tool(read_only=False, idempotent=True, title="Stop localisation")
     async def stop_localization(ctx: Context, robot: str) -> Localisation:
         """Stop localising the robot; returns the last estimate."""
         svc = app_of(ctx).service
-        return Localisation(sim_time=svc.snapshot.time, localization=await run(ctx, svc.stop_localization, robot))
+        return Localisation(sim_time=svc.sim_time, localization=await run(ctx, svc.stop_localization, robot))

@@ -43,21 +43,22 @@ def _report_view(report: dict[str, Any], fmt: ResponseFormat) -> dict[str, Any]:
 
 def register(tool: ToolRegistrar) -> None:
     @tool(read_only=True, title="Validate a mission file")
-    async def validate_mission(ctx: Context, path: str = Field(description="mission YAML inside the workspace "
-                                                                           "(or configs/missions)")) -> MissionCheck:
+    async def validate_mission(ctx: Context, path: str = Field(
+            description="a shipped mission name or a mission YAML in the workspace")) -> MissionCheck:
         """Check a mission file against the schema (errors name the file, line and field)."""
         from fleet.missions import load_mission
 
         svc = app_of(ctx).service
-        src = svc.workspace.resolve(path)
+        src = svc.workspace.named("missions", path, "mission")
         m = await anyio.to_thread.run_sync(load_mission, src)
-        return MissionCheck(sim_time=svc.snapshot.time, path=str(src), valid=True,
+        return MissionCheck(sim_time=svc.sim_time, path=str(src), valid=True,
                             mission={"name": m.name, "world": m.world, "seed": m.seed, "time_limit": m.time_limit,
                                      "robots": len(m.robots), "fleets": len(m.fleets), "tasks": len(m.tasks),
                                      "assertions": len(m.assertions)})
 
     @tool(read_only=False, title="Run a mission")
-    async def run_mission(ctx: Context, path: str = Field(description="mission YAML inside the workspace"),
+    async def run_mission(ctx: Context, path: str = Field(description="a shipped mission name (configs/missions) "
+                          "or a mission YAML in the workspace"),
                           seed: int | None = None, time_limit: float | None = Field(None, gt=0, le=36_000),
                           record: bool = Field(True, description="write recording.mcap next to the report")) \
             -> MissionJob:
@@ -67,12 +68,12 @@ def register(tool: ToolRegistrar) -> None:
 
         app = app_of(ctx)
         svc = app.service
-        src = svc.workspace.resolve(path)
+        src = svc.workspace.named("missions", path, "mission")
         out = svc.workspace.resolve(f"runs/{src.stem}", write=True)
         runner = jobs_of(app)
         req = RunRequest(str(src), seed, str(out / f"run{len(runner.jobs) + 1}"), record, time_limit)
         job = runner.start("mission", str(src), lambda progress: run_file(req, progress))
-        return MissionJob(sim_time=svc.snapshot.time, job=job_ref(job))
+        return MissionJob(sim_time=svc.sim_time, job=job_ref(job))
 
     @tool(read_only=True, title="Mission status")
     async def mission_status(ctx: Context, job_id: str, wait_s: float = Field(0.0, ge=0, le=600, description=
@@ -99,7 +100,7 @@ def register(tool: ToolRegistrar) -> None:
             raise FleetError(ErrorCode.BUSY if job.state == "running" else ErrorCode.NOT_FOUND,
                              f"job {job_id} has no report ({job.state}{': ' + job.error if job.error else ''})",
                              "poll mission_status until it has finished")
-        return MissionJob(sim_time=app.service.snapshot.time,
+        return MissionJob(sim_time=app.service.sim_time,
                           job={"id": job.id, "passed": job.result.passed, "out_dir": str(job.result.out_dir),
                                "report": _report_view(job.result.report, response_format)})
 
@@ -115,4 +116,4 @@ def register(tool: ToolRegistrar) -> None:
         src = svc.workspace.resolve(path)
         check = check_world if kind == "world" else check_robot
         rep = await anyio.to_thread.run_sync(check, Path(src))
-        return Rubric(sim_time=svc.snapshot.time, report=rep.to_dict())
+        return Rubric(sim_time=svc.sim_time, report=rep.to_dict())

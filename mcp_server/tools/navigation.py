@@ -9,7 +9,7 @@ from mcp.server.mcpserver import Context
 from mcp_types import CallToolResult
 from pydantic import BaseModel, Field
 
-from mcp_server.app import app_of, run
+from mcp_server.app import app_of, client_of, run
 from mcp_server.imaging import image_result
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat, path_payload, r3
@@ -121,7 +121,7 @@ def register(tool: ToolRegistrar) -> None:
         if show:
             marker = (await run(ctx, svc.add_marker, "path", res.path.tolist(), colour="blue", ns="plans",
                                 text=f"{robot} plan"))["id"]
-        return Plan(sim_time=svc.snapshot.time, robot=robot, planner=res.planner, length_m=round(res.length, 3),
+        return Plan(sim_time=svc.sim_time, robot=robot, planner=res.planner, length_m=round(res.length, 3),
                     planning_time_s=round(res.planning_time_s, 4), start=_pose(res.start), goal=_pose(res.goal),
                     path=path_payload(res.path, response_format), marker=marker)
 
@@ -133,8 +133,8 @@ def register(tool: ToolRegistrar) -> None:
         task_status or wait_for_task; cancel with cancel_task."""
         app = app_of(ctx)
         params = {"goal": Pose2D(x, y, yaw), "align_yaw": align_yaw} | _nav(planner, controller)
-        t = await run(ctx, app.service.submit_task, "go_to", robot, params, client=app.client_id)
-        return TaskInfo(sim_time=app.service.snapshot.time, task=task_view(t, "normal"))
+        t = await run(ctx, app.service.submit_task, "go_to", robot, params, client=client_of(ctx))
+        return TaskInfo(sim_time=app.service.sim_time, task=task_view(t, "normal"))
 
     @tool(read_only=False, title="Follow waypoints")
     async def follow_waypoints(ctx: Context, robot: str, waypoints: list[WaypointIn] = Field(min_length=1,
@@ -147,8 +147,8 @@ def register(tool: ToolRegistrar) -> None:
         app = app_of(ctx)
         wps = [w.model_dump(exclude_none=True) | ({"use_yaw": True} if w.yaw is not None else {}) for w in waypoints]
         t = await run(ctx, app.service.follow_waypoints, robot, wps, mode=mode, rounds=rounds, dwell_s=dwell_s,
-                      skip_failed=skip_failed, client=app.client_id)
-        return TaskInfo(sim_time=app.service.snapshot.time, task=task_view(t, "normal"))
+                      skip_failed=skip_failed, client=client_of(ctx))
+        return TaskInfo(sim_time=app.service.sim_time, task=task_view(t, "normal"))
 
     @tool(read_only=False, title="Cover an area")
     async def cover_area(ctx: Context, robot: str, polygon: list[XY] = Field(min_length=3, max_length=200,
@@ -159,15 +159,15 @@ def register(tool: ToolRegistrar) -> None:
         robot's actual trajectory. Returns the task id at once."""
         app = app_of(ctx)
         t = await run(ctx, app.service.cover_area, robot, polygon, holes=holes, tool_width=tool_width,
-                      pattern=pattern, client=app.client_id)
-        return TaskInfo(sim_time=app.service.snapshot.time, task=task_view(t, "normal"))
+                      pattern=pattern, client=client_of(ctx))
+        return TaskInfo(sim_time=app.service.sim_time, task=task_view(t, "normal"))
 
     @tool(read_only=True, title="Task status")
     async def task_status(ctx: Context, task_id: str, response_format: ResponseFormat = "normal") -> TaskInfo:
         """State (queued, active, succeeded, failed, canceled), reason and progress (distance remaining, ETA,
         replans, waypoints, coverage...)."""
         svc = app_of(ctx).service
-        return TaskInfo(sim_time=svc.snapshot.time, task=task_view(await run(ctx, svc.task_status, task_id),
+        return TaskInfo(sim_time=svc.sim_time, task=task_view(await run(ctx, svc.task_status, task_id),
                                                                    response_format))
 
     @tool(read_only=False, title="Wait for a task")
@@ -190,13 +190,13 @@ def register(tool: ToolRegistrar) -> None:
             return f"{state['state']}" + (f", {left:.1f} m to go" if isinstance(left, int | float) else "")
 
         finished = await advance(ctx, timeout_s, done=done, message=message, max_wall_s=max_wall_s)
-        return TaskWait(sim_time=svc.snapshot.time, task=task_view(state, "normal"), done=finished)
+        return TaskWait(sim_time=svc.sim_time, task=task_view(state, "normal"), done=finished)
 
     @tool(read_only=False, idempotent=True, title="Cancel a task")
     async def cancel_task(ctx: Context, task_id: str) -> TaskInfo:
         """Cancel a queued or running task (the robot stops)."""
         svc = app_of(ctx).service
-        return TaskInfo(sim_time=svc.snapshot.time, task=task_view(await run(ctx, svc.cancel_task, task_id), "normal"))
+        return TaskInfo(sim_time=svc.sim_time, task=task_view(await run(ctx, svc.cancel_task, task_id), "normal"))
 
     @tool(read_only=True, title="List tasks")
     async def list_tasks(ctx: Context, robot: str | None = None, include_done: bool = False,
@@ -205,7 +205,7 @@ def register(tool: ToolRegistrar) -> None:
         """Queued and active tasks (and finished ones with include_done), newest last."""
         svc = app_of(ctx).service
         tasks = await run(ctx, svc.list_tasks, robot, include_done)
-        return TaskList(sim_time=svc.snapshot.time, tasks=[task_view(t, response_format) for t in tasks[-limit:]])
+        return TaskList(sim_time=svc.sim_time, tasks=[task_view(t, response_format) for t in tasks[-limit:]])
 
     @tool(read_only=True, title="Occupancy map image")
     async def get_occupancy_map(ctx: Context, robot: str | None = Field(None, description="that robot's costmap "
@@ -217,28 +217,28 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         png, meta = await run(ctx, svc.map_image, robot, show_robots=show_robots, show_markers=show_markers,
                               max_px=max_px)
-        return image_result(png, MapMeta(sim_time=svc.snapshot.time, **meta))
+        return image_result(png, MapMeta(sim_time=svc.sim_time, **meta))
 
     @tool(read_only=False, title="Add a keep-out zone")
     async def add_keepout_zone(ctx: Context, polygon: list[XY] = Field(min_length=3, max_length=200)) -> Keepouts:
         """Forbid a polygon to every robot's planner (robots spawned later too); running navigations replan."""
         svc = app_of(ctx).service
         n = await run(ctx, svc.add_keepout, polygon)
-        return Keepouts(sim_time=svc.snapshot.time, zones=n)
+        return Keepouts(sim_time=svc.sim_time, zones=n)
 
     @tool(read_only=False, destructive=True, idempotent=True, title="Clear keep-out zones")
     async def clear_keepout_zones(ctx: Context) -> Keepouts:
         """Remove every keep-out zone from every robot's costmap."""
         svc = app_of(ctx).service
         await run(ctx, svc.clear_keepouts)
-        return Keepouts(sim_time=svc.snapshot.time, zones=0)
+        return Keepouts(sim_time=svc.sim_time, zones=0)
 
     @tool(read_only=True, title="List keep-out zones")
     async def list_keepout_zones(ctx: Context) -> Keepouts:
         """The keep-out polygons in force."""
         svc = app_of(ctx).service
         zones = await run(ctx, svc.list_keepouts)
-        return Keepouts(sim_time=svc.snapshot.time, zones=len(zones),
+        return Keepouts(sim_time=svc.sim_time, zones=len(zones),
                         polygons=[[[r3(x), r3(y)] for x, y in z] for z in zones])
 
     @tool(read_only=True, title="Navigation options")
@@ -248,5 +248,5 @@ def register(tool: ToolRegistrar) -> None:
         from planning import controller_names, planner_names
 
         svc = app_of(ctx).service
-        return NavOptions(sim_time=svc.snapshot.time, planners=planner_names(), controllers=controller_names(),
+        return NavOptions(sim_time=svc.sim_time, planners=planner_names(), controllers=controller_names(),
                           task_types=task_types(), defaults=svc.nav_config().model_dump(mode="json"))

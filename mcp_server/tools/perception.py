@@ -15,6 +15,7 @@ from mcp_server.imaging import image_result
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer
 from mcp_server.waiting import advance
+from sim.perception.types import EkfConfig
 
 
 class Detections(Answer):
@@ -51,7 +52,7 @@ def register(tool: ToolRegistrar) -> None:
         world position; the annotated image is returned too."""
         svc = app_of(ctx).service
         d = await run(ctx, svc.detect_objects, robot, min_pixels=min_pixels, group_by=group_by)
-        meta = Detections(sim_time=svc.snapshot.time, robot=robot, detections=d["detections"], image=d["image"])
+        meta = Detections(sim_time=svc.sim_time, robot=robot, detections=d["detections"], image=d["image"])
         return image_result(d["png"], meta)
 
     @tool(read_only=True, title="Segment the camera image")
@@ -60,7 +61,7 @@ def register(tool: ToolRegistrar) -> None:
         each."""
         svc = app_of(ctx).service
         d = await run(ctx, svc.segment_image, robot)
-        meta = Segmentation(sim_time=svc.snapshot.time, robot=robot, classes=d["classes"][:50],
+        meta = Segmentation(sim_time=svc.sim_time, robot=robot, classes=d["classes"][:50],
                             background_fraction=d["background_fraction"], image=d["image"])
         return image_result(d["png"], meta)
 
@@ -69,7 +70,7 @@ def register(tool: ToolRegistrar) -> None:
         """Project the latest lidar returns into a camera image rendered now (colour = range)."""
         svc = app_of(ctx).service
         d = await run(ctx, svc.lidar_camera_overlay, robot)
-        meta = Overlay(sim_time=svc.snapshot.time, robot=robot, returns=d["returns"], projected=d["projected"],
+        meta = Overlay(sim_time=svc.sim_time, robot=robot, returns=d["returns"], projected=d["projected"],
                        scan_stamp=d["scan_stamp"], depth_range=d["depth_range"], image=d["image"])
         return image_result(d["png"], meta)
 
@@ -85,14 +86,14 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         out = await run(ctx, svc.process_scan, robot, operation, eps=eps, min_points=min_points, voxel=voxel, k=k,
                         std_ratio=std_ratio)
-        return Result(sim_time=svc.snapshot.time, result=out)
+        return Result(sim_time=svc.sim_time, result=out)
 
     @tool(read_only=True, title="Sensor health")
     async def monitor_sensor_health(ctx: Context, robot: str | None = None) -> Result:
         """Per stream (lidar, IMU, odometry): measured vs configured rate, latency, dropouts, noise σ, quality
         0–1 and alerts. Monitoring starts at the first call; rates need ~2 s of sim time."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.sensor_health, robot))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.sensor_health, robot))
 
     @tool(read_only=False, title="Calibrate a sensor")
     async def calibrate_sensor(ctx: Context, robot: str,
@@ -105,24 +106,25 @@ def register(tool: ToolRegistrar) -> None:
         cal = await run(ctx, svc.start_calibration, robot, kind)
         if kind != "camera_intrinsics":
             await advance(ctx, window_s, message=lambda: f"collecting {kind} readings")
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.finish_calibration, cal["id"]))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.finish_calibration, cal["id"]))
 
     @tool(read_only=False, title="Start odometry + IMU fusion")
-    async def start_sensor_fusion(ctx: Context, robot: str, config: dict[str, float] | None = Field(
-                                  None, description="EKF noise settings (sim.perception.EkfConfig)")) -> Result:
+    async def start_sensor_fusion(ctx: Context, robot: str, config: EkfConfig | None = Field(
+                                  None, description="EKF noise settings; omitted: defaults")) -> Result:
         """Fuse wheel odometry and the gyro in an EKF from now on; sensor_fusion_status compares it with
         ground truth and raw odometry."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.start_fusion, robot, config))
+        cfg = config.model_dump(exclude_unset=True) if config is not None else None
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.start_fusion, robot, cfg))
 
     @tool(read_only=True, title="Sensor fusion status")
     async def sensor_fusion_status(ctx: Context, robot: str) -> Result:
         """The EKF pose, its error against ground truth, and raw odometry's error."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.fusion_status, robot))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.fusion_status, robot))
 
     @tool(read_only=False, idempotent=True, title="Stop sensor fusion")
     async def stop_sensor_fusion(ctx: Context, robot: str) -> Result:
         """Stop the EKF; returns its last state."""
         svc = app_of(ctx).service
-        return Result(sim_time=svc.snapshot.time, result=await run(ctx, svc.stop_fusion, robot))
+        return Result(sim_time=svc.sim_time, result=await run(ctx, svc.stop_fusion, robot))

@@ -13,7 +13,7 @@ from pydantic import Field
 
 from mcp_server.app import app_of, run
 from mcp_server.registry import ToolRegistrar
-from mcp_server.shaping import Answer
+from mcp_server.shaping import OVERWRITE, Answer
 from sim.errors import ErrorCode, FleetError
 
 
@@ -43,13 +43,15 @@ def register(tool: ToolRegistrar) -> None:
     @tool(read_only=False, title="Start recording")
     async def start_recording(ctx: Context, path: str = Field(description="an .mcap path inside the workspace"),
                               scans: bool = True, camera_robot: str | None = Field(None, description="also record "
-                              "this robot's camera at 1 Hz")) -> Recording:
+                              "this robot's camera at 1 Hz"), overwrite: bool = OVERWRITE) -> Recording:
         """Record the fleet (poses, TF, scans, map, markers, events, state) to MCAP from now on; open it in
         Foxglove. One recording at a time. Robots must exist before recording for a replay to rebuild them."""
         from fleet.recording import McapRecorder
 
         app = app_of(ctx)
         svc = app.service
+        if overwrite:
+            svc.workspace.permit_overwrite(path)
         if "recording" in app.extras:
             raise FleetError(ErrorCode.BUSY, f"already recording to {app.extras['recording'][1]}",
                              "call stop_recording first")
@@ -58,8 +60,8 @@ def register(tool: ToolRegistrar) -> None:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"a recording path ends in .mcap, got '{path}'")
         rec = McapRecorder(target, scans=scans, camera_robot=camera_robot)
         await run(ctx, lambda: rec.attach(svc, session_mission(svc), svc.config.seed))
-        app.extras["recording"] = (rec, target, svc.snapshot.time)
-        return Recording(sim_time=svc.snapshot.time, recording={"path": str(target), "started": svc.snapshot.time})
+        app.extras["recording"] = (rec, target, svc.sim_time)
+        return Recording(sim_time=svc.sim_time, recording={"path": str(target), "started": svc.sim_time})
 
     @tool(read_only=False, title="Stop recording")
     async def stop_recording(ctx: Context) -> Recording:
@@ -69,7 +71,7 @@ def register(tool: ToolRegistrar) -> None:
             raise FleetError(ErrorCode.NOT_FOUND, "no recording is running", "call start_recording first")
         rec, target, started = app.extras.pop("recording")
         counts = await run(ctx, rec.close)
-        t = app.service.snapshot.time
+        t = app.service.sim_time
         return Recording(sim_time=t, recording={"path": str(target), "started": started, "duration_s": t - started,
                                                 "messages": counts, "bytes": target.stat().st_size})
 
@@ -95,7 +97,7 @@ def register(tool: ToolRegistrar) -> None:
                             else str(p), "bytes": p.stat().st_size, "topics": topics})
             return out
 
-        return Recordings(sim_time=svc.snapshot.time, recordings=await anyio.to_thread.run_sync(scan))
+        return Recordings(sim_time=svc.sim_time, recordings=await anyio.to_thread.run_sync(scan))
 
     @tool(read_only=True, title="Replay a recording")
     async def replay_recording(ctx: Context, path: str = Field(description="an .mcap inside the workspace")) \
@@ -107,4 +109,4 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         src = svc.workspace.resolve(path)
         result = await anyio.to_thread.run_sync(replay, src)
-        return Recording(sim_time=svc.snapshot.time, recording=result.to_dict())
+        return Recording(sim_time=svc.sim_time, recording=result.to_dict())

@@ -9,7 +9,7 @@ from typing import Any, Literal
 from mcp.server.mcpserver import Context
 from pydantic import Field
 
-from mcp_server.app import app_of, run
+from mcp_server.app import app_of, client_of, run
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat, fleet_summary
 from mcp_server.waiting import advance
@@ -86,7 +86,7 @@ def register(tool: ToolRegistrar) -> None:
         tasks = None if response_format == "summary" else await run(ctx, svc.list_tasks, robot)
         if tasks is not None and response_format == "normal":
             tasks = [{k: t[k] for k in ("id", "type", "state", "progress")} for t in tasks]
-        return RobotState(sim_time=svc.snapshot.time, robot=view.to_dict(response_format), tasks=tasks)
+        return RobotState(sim_time=svc.sim_time, robot=view.to_dict(response_format), tasks=tasks)
 
     @tool(read_only=False, title="Spawn a robot")
     async def spawn_robot(ctx: Context, name: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_\-]+$"),
@@ -95,14 +95,14 @@ def register(tool: ToolRegistrar) -> None:
         """Add a differential-drive robot at (x, y, yaw); the pose must be free of obstacles."""
         svc = app_of(ctx).service
         view = await run(ctx, svc.spawn_robot, name, Pose2D(x, y, yaw), model=model, fidelity=fidelity)
-        return RobotState(sim_time=svc.snapshot.time, robot=view.to_dict("full"))
+        return RobotState(sim_time=svc.sim_time, robot=view.to_dict("full"))
 
     @tool(read_only=False, destructive=True, title="Remove a robot")
     async def remove_robot(ctx: Context, robot: str) -> Done:
         """Take a robot out of the world; its tasks are canceled."""
         svc = app_of(ctx).service
         await run(ctx, svc.remove_robot, robot)
-        return Done(sim_time=svc.snapshot.time, message=f"removed {robot}")
+        return Done(sim_time=svc.sim_time, message=f"removed {robot}")
 
     @tool(read_only=False, title="Drive a robot")
     async def drive_robot(ctx: Context, robot: str, v: float = Field(description="forward speed, m/s"),
@@ -115,14 +115,14 @@ def register(tool: ToolRegistrar) -> None:
         app = app_of(ctx)
         svc = app.service
         before = svc.robot(robot)
-        t0 = svc.snapshot.time
-        cmd = await run(ctx, svc.drive, robot, v, w, client=app.client_id, duration=duration)
+        t0 = svc.sim_time
+        cmd = await run(ctx, svc.drive, robot, v, w, client=client_of(ctx), duration=duration)
         out = DriveResult(sim_time=cmd.stamp, robot=robot, requested={"v": cmd.requested_v, "w": cmd.requested_w},
                           applied={"v": cmd.applied_v, "w": cmd.applied_w}, clamped=cmd.clamped, reason=cmd.reason)
         if not wait:
             return out
         await advance(ctx, duration, message=lambda: f"driving {robot}")
-        after, t1 = svc.robot(robot), svc.snapshot.time
+        after, t1 = svc.robot(robot), svc.sim_time
         dt = max(t1 - t0, 1e-9)
         dist = math.hypot(after.pose.x - before.pose.x, after.pose.y - before.pose.y)
         dyaw = wrap_angle(after.pose.yaw - before.pose.yaw)
@@ -137,7 +137,7 @@ def register(tool: ToolRegistrar) -> None:
     async def stop_robot(ctx: Context, robot: str) -> DriveResult:
         """Command zero velocity (a manual command: it takes the robot over from any task)."""
         app = app_of(ctx)
-        cmd = await run(ctx, app.service.stop_robot, robot, client=app.client_id)
+        cmd = await run(ctx, app.service.stop_robot, robot, client=client_of(ctx))
         return DriveResult(sim_time=cmd.stamp, robot=robot, requested={"v": 0.0, "w": 0.0},
                            applied={"v": cmd.applied_v, "w": cmd.applied_w}, clamped=cmd.clamped, reason=cmd.reason)
 
@@ -148,7 +148,7 @@ def register(tool: ToolRegistrar) -> None:
         """Latched e-stop: the robot (or fleet) brakes at once and stays stopped until rearm."""
         svc = app_of(ctx).service
         robots = await run(ctx, svc.estop, robot, reason)
-        return EstopResult(sim_time=svc.snapshot.time, robots=robots, latched=True)
+        return EstopResult(sim_time=svc.sim_time, robots=robots, latched=True)
 
     @tool(read_only=False, idempotent=True, title="Re-arm after an e-stop")
     async def rearm(ctx: Context, robot: str | None = Field(None, description="omit to re-arm the fleet e-stop")) \
@@ -156,7 +156,7 @@ def register(tool: ToolRegistrar) -> None:
         """Release a latched e-stop (robot or fleet); robots stay still until commanded again."""
         svc = app_of(ctx).service
         changed = await run(ctx, svc.rearm, robot)
-        return EstopResult(sim_time=svc.snapshot.time, robots=[robot] if robot else [], latched=not changed
+        return EstopResult(sim_time=svc.sim_time, robots=[robot] if robot else [], latched=not changed
                            and any(svc.snapshot.estopped))
 
     @tool(read_only=False, title="Acquire a control lease")
@@ -164,16 +164,16 @@ def register(tool: ToolRegistrar) -> None:
         """Become the one client allowed to command this robot (others get LEASE_HELD) until released or the
         lease lapses."""
         app = app_of(ctx)
-        await run(ctx, app.service.acquire_lease, app.client_id, robot, ttl_s)
-        return Done(sim_time=app.service.snapshot.time, message=f"client '{app.client_id}' holds {robot}")
+        await run(ctx, app.service.acquire_lease, client_of(ctx), robot, ttl_s)
+        return Done(sim_time=app.service.sim_time, message=f"client '{client_of(ctx)}' holds {robot}")
 
     @tool(read_only=False, idempotent=True, title="Release a control lease")
     async def release_lease(ctx: Context, robot: str) -> Done:
         """Give up this client's control lease on a robot."""
         app = app_of(ctx)
-        ok = await run(ctx, app.service.release_lease, app.client_id, robot)
-        return Done(sim_time=app.service.snapshot.time, message=f"released {robot}" if ok else
-                    f"client '{app.client_id}' held no lease on {robot}")
+        ok = await run(ctx, app.service.release_lease, client_of(ctx), robot)
+        return Done(sim_time=app.service.sim_time, message=f"released {robot}" if ok else
+                    f"client '{client_of(ctx)}' held no lease on {robot}")
 
     @tool(read_only=False, idempotent=True, title="Set battery charge")
     async def set_battery(ctx: Context, robot: str, soc: float = Field(ge=0, le=1, description="state of charge")) \
@@ -181,4 +181,4 @@ def register(tool: ToolRegistrar) -> None:
         """Set a robot's state of charge (to test low-battery behaviour and charging)."""
         svc = app_of(ctx).service
         await run(ctx, svc.set_battery, robot, soc)
-        return RobotState(sim_time=svc.snapshot.time, robot=svc.robot(robot).to_dict("normal"))
+        return RobotState(sim_time=svc.sim_time, robot=svc.robot(robot).to_dict("normal"))

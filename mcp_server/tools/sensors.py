@@ -85,7 +85,7 @@ def register(tool: ToolRegistrar) -> None:
                            ) -> SensorList:
         """Every robot's sensors (or one robot's, or one type): frame, rate, key figures, latest stamp."""
         svc = app_of(ctx).service
-        return SensorList(sim_time=svc.snapshot.time, sensors=await run(ctx, svc.list_sensors, robot, sensor_type))
+        return SensorList(sim_time=svc.sim_time, sensors=await run(ctx, svc.list_sensors, robot, sensor_type))
 
     @tool(read_only=True, title="Read a sensor")
     async def read_sensor(ctx: Context, robot: str,
@@ -96,8 +96,8 @@ def register(tool: ToolRegistrar) -> None:
         get_camera_image."""
         svc = app_of(ctx).service
         reading = await run(ctx, svc.read_sensor, robot, sensor)
-        stamp = getattr(reading, "stamp", svc.snapshot.time)
-        return SensorReading(sim_time=svc.snapshot.time, robot=robot, sensor=sensor, stamp=stamp,
+        stamp = getattr(reading, "stamp", svc.sim_time)
+        return SensorReading(sim_time=svc.sim_time, robot=robot, sensor=sensor, stamp=stamp,
                              data=reading_data(reading, response_format))
 
     @tool(read_only=True, title="Camera or depth image")
@@ -110,7 +110,7 @@ def register(tool: ToolRegistrar) -> None:
         img = await run(ctx, svc.read_sensor, robot, sensor)
         fx, fy, cx, cy = img.intrinsics
         cp = img.camera_pose
-        meta = CameraFrame(sim_time=svc.snapshot.time, robot=robot, which=which, stamp=img.stamp, width=img.width,
+        meta = CameraFrame(sim_time=svc.sim_time, robot=robot, which=which, stamp=img.stamp, width=img.width,
                            height=img.height, fov_deg=img.fov_deg, intrinsics={"fx": fx, "fy": fy, "cx": cx, "cy": cy},
                            camera_pose={"x": r3(cp.x), "y": r3(cp.y), "z": r3(cp.z), "yaw": r3(cp.yaw)},
                            depth=depth_stats(img) if which == "depth" else None)
@@ -137,4 +137,4 @@ def register(tool: ToolRegistrar) -> None:
     async def list_frames(ctx: Context, robot: str | None = None) -> Frames:
         """Frame names for get_transform (one robot's, or all robots' and every model's)."""
         svc = app_of(ctx).service
-        return Frames(sim_time=svc.snapshot.time, frames=await run(ctx, svc.frames, robot))
+        return Frames(sim_time=svc.sim_time, frames=await run(ctx, svc.frames, robot))

@@ -7,9 +7,10 @@ from typing import Any
 from mcp.server.mcpserver import Context
 from pydantic import Field
 
+from fleet.validation import MAX_SPEED, MAX_STEPS, MIN_SPEED
 from mcp_server.app import app_of, run
 from mcp_server.registry import ToolRegistrar
-from mcp_server.shaping import Answer
+from mcp_server.shaping import OVERWRITE, Answer
 from sim.errors import ErrorCode, FleetError
 
 
@@ -51,6 +52,29 @@ class Done(Answer):
     message: str
 
 
+class HealthOut(Answer):
+    """alive false: every world call fails with SIM_DEAD (dead_reason says why; restart_simulation)."""
+
+    alive: bool
+    dead_reason: str | None
+    command: str | None
+    busy_for_s: float | None
+    command_errors: int
+    overruns: int
+    tick_errors: int
+    last_error: str | None
+    restarts: int
+    recent_errors: list[str]
+    last_snapshot: str | None
+
+
+class Restarted(Answer):
+    restored_from: str
+    robots: list[str]
+    skipped: list[str] = Field(description="robots or snapshot that could not be brought back, with why")
+    restarts: int
+
+
 def register(tool: ToolRegistrar) -> None:
     @tool(read_only=True, title="Simulation status")
     async def sim_status(ctx: Context) -> SimStatus:
@@ -67,26 +91,26 @@ def register(tool: ToolRegistrar) -> None:
         """Stop sim time (robots freeze; commands are still accepted and apply when time runs again)."""
         svc = app_of(ctx).service
         await run(ctx, svc.pause)
-        return SimTime(sim_time=svc.snapshot.time, step_count=svc.snapshot.step_count, clock="paused")
+        return SimTime(sim_time=svc.sim_time, step_count=svc.snapshot.step_count, clock="paused")
 
     @tool(read_only=False, idempotent=True, title="Run the simulation")
-    async def unpause_simulation(ctx: Context, speed: float | None = Field(None, gt=0, le=1000,
+    async def unpause_simulation(ctx: Context, speed: float | None = Field(None, ge=MIN_SPEED, le=MAX_SPEED,
                                  description="real-time factor to run at; omitted keeps the current one")) -> SimTime:
         """Let sim time run at real time × speed."""
         svc = app_of(ctx).service
         await run(ctx, svc.resume, speed)
-        return SimTime(sim_time=svc.snapshot.time, step_count=svc.snapshot.step_count, clock="realtime")
+        return SimTime(sim_time=svc.sim_time, step_count=svc.snapshot.step_count, clock="realtime")
 
     @tool(read_only=False, idempotent=True, title="Set simulation speed")
-    async def set_simulation_speed(ctx: Context, speed: float = Field(gt=0, le=1000,
+    async def set_simulation_speed(ctx: Context, speed: float = Field(ge=MIN_SPEED, le=MAX_SPEED,
                                    description="sim seconds per wall second")) -> SimTime:
         """Change the real-time factor the clock aims for (it keeps its mode)."""
         svc = app_of(ctx).service
         await run(ctx, svc.set_speed, speed)
-        return SimTime(sim_time=svc.snapshot.time, step_count=svc.snapshot.step_count, clock=svc.clock.mode.value)
+        return SimTime(sim_time=svc.sim_time, step_count=svc.snapshot.step_count, clock=svc.clock.mode.value)
 
     @tool(read_only=False, title="Step the simulation")
-    async def step_simulation(ctx: Context, steps: int = Field(1, ge=1, le=1_000_000,
+    async def step_simulation(ctx: Context, steps: int = Field(1, ge=1, le=MAX_STEPS,
                               description="physics steps (1/physics_hz s each)")) -> SimTime:
         """Advance exactly `steps` physics steps now, as fast as possible, then report the sim time."""
         svc = app_of(ctx).service
@@ -102,21 +126,37 @@ def register(tool: ToolRegistrar) -> None:
         """Rebuild the world from its file: every robot removed, tasks canceled, sim time 0."""
         svc = app_of(ctx).service
         await run(ctx, svc.reset)
-        return Done(sim_time=svc.snapshot.time, message=f"world {svc.world.name} reset")
+        return Done(sim_time=svc.sim_time, message=f"world {svc.world.name} reset")
 
     @tool(read_only=True, title="Simulation performance")
-    async def profile_simulation(ctx: Context, steps: int = Field(100, ge=1, le=10_000)) -> Performance:
+    async def profile_simulation(ctx: Context, steps: int = Field(100, ge=1, le=10_000, description="physics steps "
+                                 "to time; the world is put back afterwards")) -> Performance:
         """Run `steps` steps under a profiler: step cost, real-time factor and where the time goes."""
         svc = app_of(ctx).service
         p = await run(ctx, svc.performance, steps)
-        return Performance(sim_time=svc.snapshot.time, steps=p["steps"], step_ms=p["step_ms"],
+        return Performance(sim_time=svc.sim_time, steps=p["steps"], step_ms=p["step_ms"],
                            real_time_factor=p["real_time_factor"], robots=p["robots"], hotspots=p["hotspots"])
+
+    @tool(read_only=True, title="Simulation health")
+    async def sim_health(ctx: Context) -> HealthOut:
+        """Is the sim thread alive, what is it running, which commands failed or overran, and why it died."""
+        h = app_of(ctx).service.sim_health()  # answered without the sim thread, so it works when that is stuck
+        return HealthOut(**h)
+
+    @tool(read_only=False, destructive=True, title="Restart the simulation")
+    async def restart_simulation(ctx: Context) -> Restarted:
+        """Rebuild the world after SIM_DEAD (or on demand): the world file again, then the last saved snapshot
+        (else the robots at their last poses). Tasks are canceled."""
+        import anyio
+
+        svc = app_of(ctx).service
+        return Restarted(**await anyio.to_thread.run_sync(svc.restart))
 
     @tool(read_only=True, title="List worlds")
     async def list_worlds(ctx: Context) -> WorldList:
         """The shipped worlds (configs/worlds) that load_world accepts by name."""
         svc = app_of(ctx).service
-        return WorldList(sim_time=svc.snapshot.time, worlds=svc.list_worlds())
+        return WorldList(sim_time=svc.sim_time, worlds=svc.list_worlds())
 
     @tool(read_only=False, destructive=True, title="Load a world")
     async def load_world(ctx: Context, world: str = Field(description="a shipped world name, or an SDF file path "
@@ -124,18 +164,20 @@ def register(tool: ToolRegistrar) -> None:
         """Replace the world with another SDF world (robots are removed, tasks canceled)."""
         svc = app_of(ctx).service
         await run(ctx, svc.load_world, world)
-        return Done(sim_time=svc.snapshot.time, message=f"loaded {svc.world_path}")
+        return Done(sim_time=svc.sim_time, message=f"loaded {svc.world_path}")
 
     @tool(read_only=False, title="Save the world as SDF")
-    async def save_world(ctx: Context, path: str = Field(description="output .world path inside the workspace")) \
-            -> Done:
+    async def save_world(ctx: Context, path: str = Field(description="output .world path in the outputs area"),
+                         overwrite: bool = OVERWRITE) -> Done:
         """Write the current world (models at their current poses) as an SDF 1.9 file."""
         if not path.endswith((".world", ".sdf")):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"a world file ends in .world or .sdf, got '{path}'",
                              "e.g. saved/arena.world")
         svc = app_of(ctx).service
+        if overwrite:
+            svc.workspace.permit_overwrite(path)
         out = await run(ctx, svc.save_world, path)
-        return Done(sim_time=svc.snapshot.time, message=f"saved {out}")
+        return Done(sim_time=svc.sim_time, message=f"saved {out}")
 
     @tool(read_only=False, title="Save a snapshot")
     async def save_snapshot(ctx: Context, name: str = Field(min_length=1, max_length=64)) -> Done:
@@ -155,4 +197,4 @@ def register(tool: ToolRegistrar) -> None:
     async def list_snapshots(ctx: Context) -> Snapshots:
         """Saved snapshots with their sim time and robots."""
         svc = app_of(ctx).service
-        return Snapshots(sim_time=svc.snapshot.time, snapshots=await run(ctx, svc.list_snapshots))
+        return Snapshots(sim_time=svc.sim_time, snapshots=await run(ctx, svc.list_snapshots))

@@ -106,7 +106,7 @@ def register(tool: ToolRegistrar) -> None:
         by_kind: dict[str, int] = {}
         for s in states:
             by_kind[s.kind] = by_kind.get(s.kind, 0) + 1
-        t = svc.snapshot.time
+        t = svc.sim_time
         if response_format == "summary":
             names = compress_names([s.name for s in states])
             return ModelList(sim_time=t, count=len(states), by_kind=by_kind, names=names)
@@ -125,20 +125,20 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         names = await run(ctx, svc.spawn_model, name=name, file=file, xml=xml,
                           pose=pose.pose() if pose else None, static=static)
-        return Spawned(sim_time=svc.snapshot.time, models=names)
+        return Spawned(sim_time=svc.sim_time, models=names)
 
     @tool(read_only=False, destructive=True, title="Delete a model")
     async def delete_model(ctx: Context, name: str) -> Done:
         """Remove a (non-robot) model from the world; use remove_robot for robots."""
         svc = app_of(ctx).service
         await run(ctx, svc.delete_model, name)
-        return Done(sim_time=svc.snapshot.time, message=f"deleted {name}")
+        return Done(sim_time=svc.sim_time, message=f"deleted {name}")
 
     @tool(read_only=True, title="Model state")
     async def get_model_state(ctx: Context, name: str) -> ModelStateOut:
         """A model's (or robot's) pose and linear/angular velocity in the world frame."""
         svc = app_of(ctx).service
-        return _state(await run(ctx, svc.get_model_state, name), svc.snapshot.time)
+        return _state(await run(ctx, svc.get_model_state, name), svc.sim_time)
 
     @tool(read_only=False, title="Set model state")
     async def set_model_state(ctx: Context, name: str, pose: PoseIn | None = None,
@@ -148,7 +148,7 @@ def register(tool: ToolRegistrar) -> None:
         svc = app_of(ctx).service
         st = await run(ctx, svc.set_model_state, name, pose.pose() if pose else None, linear_velocity,
                        angular_velocity)
-        return _state(st, svc.snapshot.time)
+        return _state(st, svc.sim_time)
 
     @tool(read_only=False, title="Apply force and torque")
     async def apply_force(ctx: Context, name: str, force: Vec3 = Field(description="N, world frame"),
@@ -156,7 +156,7 @@ def register(tool: ToolRegistrar) -> None:
         """Push a dynamic model (or dynamic robot) for the next physics step."""
         svc = app_of(ctx).service
         await run(ctx, svc.apply_force, name, force, torque)
-        return Done(sim_time=svc.snapshot.time, message=f"applied force {list(force)} N, torque {list(torque)} N·m "
+        return Done(sim_time=svc.sim_time, message=f"applied force {list(force)} N, torque {list(torque)} N·m "
                     f"to {name}")
 
     @tool(read_only=True, title="World properties")
@@ -173,13 +173,13 @@ def register(tool: ToolRegistrar) -> None:
                     "docks": svc.list_docks(), "physics": svc.world.physics_properties(),
                     "unsupported": list(d.unsupported)[:20]}
 
-        return WorldInfo(sim_time=svc.snapshot.time, **await run(ctx, info))
+        return WorldInfo(sim_time=svc.sim_time, **await run(ctx, info))
 
     @tool(read_only=True, title="Physics properties")
     async def get_physics_properties(ctx: Context) -> Physics:
         """Physics rate, time step, gravity, solver iterations and fidelity."""
         svc = app_of(ctx).service
-        return Physics(sim_time=svc.snapshot.time, **await run(ctx, svc.physics_properties))
+        return Physics(sim_time=svc.sim_time, **await run(ctx, svc.physics_properties))
 
     @tool(read_only=False, idempotent=True, title="Set physics properties")
     async def set_physics_properties(ctx: Context, gravity: Vec3 | None = Field(None, description="m/s²"),
@@ -187,7 +187,7 @@ def register(tool: ToolRegistrar) -> None:
         """Change gravity and/or the solver iterations (dynamic bodies feel it; kinematic robots do not)."""
         svc = app_of(ctx).service
         out = await run(ctx, svc.set_physics_properties, gravity=gravity, solver_iterations=solver_iterations)
-        return Physics(sim_time=svc.snapshot.time, **out)
+        return Physics(sim_time=svc.sim_time, **out)
 
     @tool(read_only=False, idempotent=True, title="Set gravity")
     async def set_gravity(ctx: Context, preset: Literal["earth", "moon", "mars", "zero", "custom"] = "earth",
@@ -198,20 +198,23 @@ def register(tool: ToolRegistrar) -> None:
                              f"presets: {', '.join(GRAVITY_PRESETS)}, custom")
         svc = app_of(ctx).service
         g = vector if vector is not None else GRAVITY_PRESETS[preset]
-        return Physics(sim_time=svc.snapshot.time, **await run(ctx, svc.set_physics_properties, gravity=g))
+        return Physics(sim_time=svc.sim_time, **await run(ctx, svc.set_physics_properties, gravity=g))
 
     @tool(read_only=True, title="Validate a world file")
     async def validate_world(ctx: Context, world: str = Field(description="a shipped world name or an SDF path "
                                                                           "inside the workspace")) -> WorldCheck:
         """Parse an SDF world without loading it: models, obstacles, spawn points, unsupported elements."""
-        from fleet.paths import world_file
         from sim import parse_sdf
+        from sim.read_policy import policy
 
         svc = app_of(ctx).service
-        path = world_file(world) if not world.endswith((".world", ".sdf")) else svc.workspace.resolve(world)
-        if not path.is_file():
-            raise FleetError(ErrorCode.NOT_FOUND, f"no world file '{world}'", "call list_worlds for shipped worlds")
-        d = await anyio.to_thread.run_sync(parse_sdf, str(path))  # parsing needs no world: off the sim thread
-        return WorldCheck(sim_time=svc.snapshot.time, path=str(path), world=d.name, sdf_version=d.sdf_version,
+        path = svc.workspace.world(world)
+
+        def parse() -> Any:
+            with policy(svc.workspace.readable):  # includes and meshes stay inside the workspace too
+                return parse_sdf(str(path))
+
+        d = await anyio.to_thread.run_sync(parse)  # parsing needs no world: off the sim thread
+        return WorldCheck(sim_time=svc.sim_time, path=str(path), world=d.name, sdf_version=d.sdf_version,
                           models=len(d.models), obstacles=len(d.obstacle_models()),
                           spawn_points=[s.name for s in d.spawn_points], unsupported=list(d.unsupported)[:50])

@@ -67,9 +67,9 @@ async def test_record_list_and_replay(client, service: FleetService, workspace: 
     service.advance(2.0)
     done = (await ok(client, "stop_recording"))["recording"]
     assert done["messages"]["/fleetnav/state"] == 20 and done["messages"]["/r1/scan"] == 20
-    assert (workspace / "rec" / "run.mcap").stat().st_size == done["bytes"]
+    assert (workspace / "outputs" / "rec" / "run.mcap").stat().st_size == done["bytes"]
     listed = (await ok(client, "list_recordings", {"directory": "rec"}))["recordings"]
-    assert listed[0]["path"] == "rec/run.mcap" and listed[0]["topics"]["/tf"] == 20
+    assert listed[0]["path"] == "outputs/rec/run.mcap" and listed[0]["topics"]["/tf"] == 20
     rep = (await ok(client, "replay_recording", {"path": "rec/run.mcap"}))["recording"]
     assert rep["robots"] == ["r1"] and rep["ticks"] >= 19 and rep["max_divergence_m"]["r1"] < 0.01
     await err(client, "stop_recording", {}, "NOT_FOUND")

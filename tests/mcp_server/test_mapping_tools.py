@@ -35,7 +35,8 @@ async def test_slam_session_map_save_load_and_localise(client, service: FleetSer
     service.advance(1.0)
     assert not stopped["running"] and service.slam_status("r1")["scans"] == stopped["scans"]
     saved = (await ok(client, "save_slam_map", {"robot": "r1", "path": "maps/room.yaml"}))["map"]
-    assert (workspace / "maps" / "room.yaml").is_file() and (workspace / "maps" / "room.pgm").is_file()
+    out = workspace / "outputs" / "maps"
+    assert (out / "room.yaml").is_file() and (out / "room.pgm").is_file()
     loaded = (await ok(client, "load_slam_map", {"path": "maps/room.yaml", "name": "room2"}))["map"]
     assert (loaded["width"], loaded["height"]) == (saved["width"], saved["height"])
     assert {m["name"] for m in (await ok(client, "list_maps"))["maps"]} == {"room", "room2"}
@@ -53,12 +54,12 @@ async def test_slam_bad_input(client, service: FleetService) -> None:
     service.spawn_robot("r1", Pose2D(-5.0, -5.5, 0.0))
     await err(client, "slam_status", {"robot": "r1"}, "NOT_FOUND")
     await err(client, "start_slam", {"robot": "ghost"}, "UNKNOWN_ROBOT")
-    await err(client, "start_slam", {"robot": "r1", "config": {"keyframes": {"distance": -1}}}, "INVALID_CONFIG")
+    await err(client, "start_slam", {"robot": "r1", "config": {"keyframes": {"distance": -1}}}, "INVALID_ARGUMENT")
     await err(client, "stop_slam", {"robot": "r1"}, "NOT_FOUND")
     await err(client, "save_slam_map", {"robot": "r1", "path": "maps/x.yaml"}, "NOT_FOUND")
     await err(client, "save_slam_map", {"robot": "r1", "path": "../x.yaml"}, "PATH_NOT_ALLOWED")
     await err(client, "load_slam_map", {"path": "maps/none.yaml"}, "NOT_FOUND")
-    await err(client, "load_slam_map", {"path": "maps/none.png"}, "INVALID_ARGUMENT")
+    await err(client, "load_slam_map", {"path": "maps/none.png"}, "NOT_FOUND")
     await err(client, "localize_robot", {"robot": "r1", "map_name": "nope"}, "NOT_FOUND")
     await err(client, "localize_robot", {"robot": "r1", "map_name": "nope", "x": 1.0}, "INVALID_ARGUMENT")
     await err(client, "localization_status", {"robot": "r1"}, "NOT_FOUND")

@@ -53,7 +53,7 @@ async def test_mission_bad_input(client, workspace: Path) -> None:
     (workspace / "typo.yaml").write_text(MISSION.replace("time_limit", "time_limt"))
     text = await err(client, "validate_mission", {"path": "typo.yaml"}, "INVALID_CONFIG")
     assert "time_limt" in text
-    await err(client, "run_mission", {"path": "../../etc/m.yaml"}, "PATH_NOT_ALLOWED")
+    await err(client, "run_mission", {"path": "../../etc/m.yaml"}, "NOT_FOUND")
     await err(client, "mission_status", {"job_id": "mission999"}, "NOT_FOUND")
     await err(client, "mission_report", {"job_id": "mission999"}, "NOT_FOUND")
     job = (await ok(client, "run_mission", {"path": "typo.yaml"}))["job"]
@@ -79,5 +79,5 @@ async def test_grade_course_files(client, workspace: Path) -> None:
     r = (await ok(client, "grade_course_file", {"kind": "world",
                                                 "path": str(CONFIGS / "worlds" / "robot_arena.world")}))["report"]
     assert r["total"] == 15 and r["earned"] == r["total"]
-    await err(client, "grade_course_file", {"kind": "world", "path": "/etc/hosts"}, "PATH_NOT_ALLOWED")
+    await err(client, "grade_course_file", {"kind": "world", "path": "/etc/hosts"}, "NOT_FOUND")
     await err(client, "grade_course_file", {"kind": "robot", "path": "missing.urdf"})

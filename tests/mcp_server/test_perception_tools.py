@@ -105,4 +105,4 @@ async def test_odometry_imu_fusion_tracks_the_true_pose(client, service: FleetSe
     assert (await ok(client, "stop_sensor_fusion", {"robot": "r1"}))["result"]["running"] is False
     await err(client, "sensor_fusion_status", {"robot": "r1"}, "NOT_FOUND")
     await err(client, "stop_sensor_fusion", {"robot": "r1"}, "NOT_FOUND")
-    await err(client, "start_sensor_fusion", {"robot": "r1", "config": {"gyro_std": -1.0}}, "INVALID_CONFIG")
+    await err(client, "start_sensor_fusion", {"robot": "r1", "config": {"gyro_std": -1.0}}, "INVALID_ARGUMENT")

@@ -41,6 +41,8 @@ async def test_read_only_mode_exposes_only_read_only_tools(service: FleetService
         names = {t.name for t in tools}
         assert "list_robots" in names and "drive_robot" not in names and "reset_simulation" not in names
         await err(c, "drive_robot", {"robot": "r1", "v": 1, "w": 0}, "NOT_FOUND")
+    assert service.read_only  # enforced by the service too (tests/mcp_server/test_hostile.py)
+    service.read_only = False  # the module's service is shared with the other tests
 
 
 async def test_every_tool_is_exercised_by_a_test_and_documented(client) -> None:

@@ -48,7 +48,8 @@ async def test_reset_removes_robots_and_rewinds_time(client, service: FleetServi
 async def test_profile_runs_the_steps_and_names_hotspots(client, service: FleetService) -> None:
     service.spawn_robot("r1", Pose2D(0, 0, 0))
     p = await ok(client, "profile_simulation", {"steps": 20})
-    assert p["steps"] == 20 and service.world.step_count == 20 and p["step_ms"] > 0 and p["hotspots"]
+    # profiling measures and then puts the world back: a read-only tool never advances time
+    assert p["steps"] == 20 and service.world.step_count == 0 and p["step_ms"] > 0 and p["hotspots"]
     await err(client, "profile_simulation", {"steps": 0}, "INVALID_ARGUMENT")
 
 
@@ -58,7 +59,8 @@ async def test_worlds_list_load_save_and_validate(client, service: FleetService,
     await ok(client, "load_world", {"world": "robot_arena"})
     assert service.world.name == "robot_arena" and "box_crate" in service.world.models.names()
     out = await ok(client, "save_world", {"path": "saved/arena.world"})
-    assert (workspace / "saved" / "arena.world").is_file() and out["message"].startswith("saved")
+    # writes land in the workspace's outputs area; reads look there too
+    assert (workspace / "outputs" / "saved" / "arena.world").is_file() and out["message"].startswith("saved")
     v = await ok(client, "validate_world", {"world": "saved/arena.world"})
     assert v["obstacles"] == len(service.world.description.obstacle_models())
     await err(client, "load_world", {"world": "no_such_world"}, "NOT_FOUND")

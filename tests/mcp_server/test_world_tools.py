@@ -45,7 +45,7 @@ async def test_spawn_from_xml_appears_in_the_world_and_its_map(client, service: 
     assert st["pose"]["x"] == pytest.approx(0.5) and st["static"] is True
     await err(client, "spawn_model", {"xml": BOX}, "INVALID_ARGUMENT")  # the name is taken now
     await err(client, "spawn_model", {}, "INVALID_ARGUMENT")
-    await err(client, "spawn_model", {"file": "/etc/passwd"}, "PATH_NOT_ALLOWED")
+    await err(client, "spawn_model", {"file": "/etc/passwd"}, "NOT_FOUND")  # outside = missing: no existence oracle
     await err(client, "spawn_model", {"xml": "<sdf version='1.9'><world/>"})
 
 

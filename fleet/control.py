@@ -97,7 +97,11 @@ class ControlLoop:
                 m = safety.active_manual(robot, now)  # None once the deadman lapsed
                 desired[robot] = (m.v, m.w) if m is not None else (0.0, 0.0)
         if self.avoidance is not None and len(desired) > 1:  # 3. keep clear of each other
-            desired = self.avoidance.filter(svc, desired)
+            # Robots of an exclusive source (the traffic layer) are kept apart by it: avoidance leaves them be.
+            fixed = {r: desired.pop(r) for r in list(desired)
+                     if any(getattr(s, "exclusive", False) and s.owner(r) is not None for s in self.sources)}
+            desired = self.avoidance.filter(svc, desired) if len(desired) > 1 else desired
+            desired.update(fixed)
         self.last_desired = desired
         f = world.table.f
         for robot, (v, w) in desired.items():  # 4. the envelope gates everything

@@ -42,6 +42,13 @@ class TrafficGrid:
             other = np.where(ok, self.index[np.clip(gx + dx, 0, self.nx - 1) * self.ny
                                             + np.clip(gy + dy, 0, self.ny - 1)], -1)
             keep = other >= 0
+            # The straight segment between the centres must clear obstacles too (a shelf corner between them).
+            a = self.xy[np.flatnonzero(keep)]
+            b = self.xy[other[keep]]
+            ts = np.linspace(0.0, 1.0, 11)[1:-1]
+            pts = (a[:, None, :] + ts[None, :, None] * (b - a)[:, None, :]).reshape(-1, 2)
+            ok_edge = (clearance.query(pts)[0] >= radius + margin).reshape(len(a), -1).all(axis=1)
+            keep[np.flatnonzero(keep)[~ok_edge]] = False
             rows.append(np.flatnonzero(keep))
             cols.append(other[keep])
         r, c = np.concatenate(rows), np.concatenate(cols)

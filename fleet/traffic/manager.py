@@ -1,12 +1,13 @@
 """The traffic layer: robots on a known map move cell to cell in synchronous PIBT steps (fleet/traffic/pibt.py),
 so they cannot collide with each other or deadlock; ORCA stays for robots outside the layer.
 
-A step is planned for all robots at once, then executed in two phases over all robots in numpy:
-  turn  movers rotate in place to face their next cell (their footprint stays inside their own cell);
-  move  movers travel one cell along a smooth synchronous profile, tracked by feedback. A robot entering a
-        cell another robot is leaving straight ahead starts with it (they stay a cell apart); behind a robot
-        that turns away it starts half a traverse later (it stays ≥ one cell from it). Rotations of robots
-        around a loop are never planned (pibt.py), so every follower has a leader that started first.
+A step is planned for all robots at once (PIBT), then executed per robot in numpy: a mover turns in place to
+face its next cell (or its back, for a cell behind: it reverses), then travels one cell on a trapezoidal
+reference (at rest at both centres, so it never overshoots), tracked by feedback. A robot entering a cell
+another robot is leaving starts no earlier than that leader (straight on), or half a traverse after it (when
+the leader turns away), so it stays about a cell behind. Rotations of robots around a loop are never planned
+(pibt.py): leaders form a forest and every follower's leader starts first. The next step is planned when
+every mover has arrived.
 With cells wider than a robot's footprint diameter, any two robots stay ≥ about one cell apart at all times.
 A robot that makes no progress towards its goal for `stall_s` raises a deadlock event naming it and the
 robots in its way; the event closes (with its duration) when its priority, which grows while it waits,
@@ -29,9 +30,8 @@ from sim.transforms import wrap_angles
 if TYPE_CHECKING:
     from fleet.service import FleetService
 
-TURN_TOL = 0.03  # rad: movers face their next cell within this before the move phase
-ARRIVE_TOL = 0.06  # m: movers this close to their cell centre end the move phase
-SETTLE_S = 1.5  # s: longest wait for stragglers after the profile ends
+TURN_TOL = 0.05  # rad: movers face their next cell within this before the move phase
+ARRIVE_TOL = 0.12  # m: movers this close to their cell centre end the move phase (the next step may go on)
 
 
 class TrafficManager:
@@ -49,8 +49,13 @@ class TrafficManager:
                              f"radius {self.radius:.3f} m", f"use cell ≥ {2 * self.radius + 0.1:.2f} m")
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
-        self.traverse_s = cell / speed  # one cell, smoothstep profile: peak speed 1.5 × `speed`
-        self.max_w = min(1.5, spec.limits.max_angular)
+        # One cell on a trapezoidal profile (accelerate, cruise, brake to rest at the centre): a robot never
+        # overshoots into the next cell, whatever comes after.
+        self.accel = min(1.0, spec.limits.max_linear_accel * 0.7)
+        self.peak = min(speed, math.sqrt(self.accel * cell))
+        ramp = self.peak / self.accel
+        self.traverse_s = 2 * ramp + (cell - self.peak * ramp) / self.peak
+        self.max_w = min(2.0, spec.limits.max_angular)
         self.stall_s = stall_s
         self.names: list[str] = []
         self.cur = np.zeros(0, np.int64)
@@ -60,9 +65,10 @@ class TrafficManager:
         self.best = np.zeros(0)  # best distance to goal so far, and when it was reached
         self.best_at = np.zeros(0)
         self.pending = np.zeros(0, bool)  # a goal given and not reached yet
-        self.offset = np.zeros(0)
+        self.leader = np.zeros(0, np.int64)
+        self.delay = np.zeros(0)
+        self.start = np.zeros(0)
         self.phase = "plan"
-        self.t0 = 0.0
         self.on_reached: Callable[[str, float], None] | None = None
         self.open_stalls: dict[str, tuple[float, list[str]]] = {}
         self.stats: dict[str, Any] = {"steps": 0, "reached": 0, "deadlocks": 0, "resolved": 0,
@@ -86,7 +92,6 @@ class TrafficManager:
         now = w.time
         self.since, self.best, self.best_at = (np.append(a, v) for a, v in
                                                ((self.since, now), (self.best, 0.0), (self.best_at, now)))
-        self.offset = np.append(self.offset, 0.0)
         self.pending = np.append(self.pending, False)
         self._tie = np.append(self._tie, np.random.default_rng(len(self.names)).random() * 1e-3)
 
@@ -119,7 +124,7 @@ class TrafficManager:
         if robot in self.names and self.phase == "plan":
             i = self.names.index(robot)
             self.names.pop(i)
-            for attr in ("cur", "nxt", "goal", "since", "best", "best_at", "offset", "pending", "_tie"):
+            for attr in ("cur", "nxt", "goal", "since", "best", "best_at", "pending", "_tie"):
                 setattr(self, attr, np.delete(getattr(self, attr), i))
 
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
@@ -134,28 +139,43 @@ class TrafficManager:
         d = n - c
         heading = np.where(moving, np.arctan2(d[:, 1], d[:, 0]), yaw)
         err = wrap_angles(heading - yaw)
-        v, w = np.zeros(len(rows)), np.zeros(len(rows))
-        if self.phase == "turn":
-            w = np.clip(4.0 * err, -self.max_w, self.max_w) * moving
-            if np.all(np.abs(err[moving]) < TURN_TOL):
-                self.phase, self.t0 = "move", now
+        back = np.abs(err) > math.pi / 2  # a cell behind: drive there in reverse rather than turn round
+        err = np.where(back, wrap_angles(err + math.pi), err)
+        sign = np.where(back, -1.0, 1.0)
         if self.phase == "move":
-            u = np.clip((now - self.t0) / self.traverse_s - self.offset, 0.0, 1.0)
-            s, ds = 3 * u ** 2 - 2 * u ** 3, 6 * u * (1 - u) / self.traverse_s
-            ref = c + s[:, None] * d
-            unit = d / self.grid.cell
-            along = (ref[:, 0] - x) * unit[:, 0] + (ref[:, 1] - y) * unit[:, 1]
-            cross = -(ref[:, 0] - x) * unit[:, 1] + (ref[:, 1] - y) * unit[:, 0]
-            v = np.where(moving, ds * self.grid.cell + 2.0 * along, 0.0)
-            w = np.where(moving, np.clip(4.0 * err + 3.0 * cross, -self.max_w, self.max_w), 0.0)
-            end = self.t0 + (1.0 + float(self.offset.max())) * self.traverse_s
-            arrived = np.hypot(n[:, 0] - x, n[:, 1] - y) < ARRIVE_TOL
-            if now >= end and (np.all(arrived | ~moving) or now >= end + SETTLE_S):
-                self.cur = self.nxt.copy()
-                self.phase = "plan"
-                v[:], w[:] = 0.0, 0.0
-                self._arrivals(now)
+            # Each mover starts once it faces its cell and its leader (the robot leaving that cell) has started
+            # (straight on: with it; turning away: half a traverse later). Leaders form a forest (pibt.py).
+            waiting = moving & ~np.isfinite(self.start)
+            for i in np.flatnonzero(waiting & (np.abs(err) < TURN_TOL)).tolist():
+                k = int(self.leader[i])
+                if k < 0 or (np.isfinite(self.start[k]) and now >= self.start[k] + self.delay[i] * self.traverse_s):
+                    self.start[i] = now
+        started = moving & np.isfinite(self.start)
+        s, ds = self._profile(np.where(started, now - np.where(started, self.start, now), 0.0))
+        ref = c + s[:, None] * d
+        unit = d / self.grid.cell
+        along = (ref[:, 0] - x) * unit[:, 0] + (ref[:, 1] - y) * unit[:, 1]
+        cross = -(ref[:, 0] - x) * unit[:, 1] + (ref[:, 1] - y) * unit[:, 0]
+        v = np.where(started, sign * (ds * self.grid.cell + 2.0 * along), 0.0)
+        w = np.where(moving, np.clip(4.0 * err + 3.0 * cross * started, -self.max_w, self.max_w), 0.0)
+        arrived = np.hypot(n[:, 0] - x, n[:, 1] - y) < ARRIVE_TOL
+        done = ~moving | (started & (now >= self.start + self.traverse_s) & arrived)
+        if done.all():  # never plan from a cell a robot has not reached
+            self.cur = self.nxt.copy()
+            self.phase = "plan"
+            v[:], w[:] = 0.0, 0.0
+            self._arrivals(now)
         return {name: (float(a), float(b)) for name, a, b in zip(self.names, v, w, strict=True)}
+
+    def _profile(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Share of the cell travelled and its rate (1/s) at time `tau` into the traverse (trapezoid)."""
+        a, vp, T, L = self.accel, self.peak, self.traverse_s, self.grid.cell
+        ramp = vp / a
+        tau = np.clip(tau, 0.0, T)
+        dist = np.where(tau < ramp, 0.5 * a * tau ** 2,
+                        np.where(tau < T - ramp, 0.5 * vp * ramp + vp * (tau - ramp), L - 0.5 * a * (T - tau) ** 2))
+        vel = np.where(tau < ramp, a * tau, np.where(tau < T - ramp, vp, a * (T - tau)))
+        return np.clip(dist / L, 0.0, 1.0), vel / L
 
     # ---- planning and bookkeeping ------------------------------------------------------------------------
 
@@ -164,30 +184,26 @@ class TrafficManager:
         self.nxt = np.asarray(self.pibt.step(self.cur.tolist(), self.goal.tolist(), priority), np.int64)
         self.stats["steps"] += 1
         self.stats["pushes"] += len(self.pibt.pushes)
-        self.offset = self._offsets()
+        self.leader, self.delay = self._leaders()
+        self.start = np.full(len(self.cur), np.inf)
         self._stalls(now)
         if np.any(self.nxt != self.cur):
-            self.phase = "turn"
+            self.phase = "move"
 
-    def _offsets(self) -> np.ndarray:
-        """Start delays (in traverses): behind a leader that turns away, half a traverse after it starts."""
+    def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per mover, the robot leaving the cell it enters (-1: none) and the start delay behind it, in
+        traverses: 0 straight on, 0.5 when the leader turns away."""
         occ = {int(v): i for i, v in enumerate(self.cur.tolist())}
-        off = np.full(len(self.cur), -1.0)
-
-        def of(i: int) -> float:
-            if off[i] < 0:
-                k = occ.get(int(self.nxt[i]))
-                if k is None or k == i or self.nxt[i] == self.cur[i]:
-                    off[i] = 0.0
-                else:
-                    same = np.array_equal(self.grid.xy[self.nxt[k]] - self.grid.xy[self.cur[k]],
-                                          self.grid.xy[self.nxt[i]] - self.grid.xy[self.cur[i]])
-                    off[i] = of(k) + (0.0 if same else 0.5)
-            return float(off[i])
-
-        for i in range(len(self.cur)):
-            of(i)
-        return off
+        leader = np.full(len(self.cur), -1, np.int64)
+        delay = np.zeros(len(self.cur))
+        for i in np.flatnonzero(self.nxt != self.cur).tolist():
+            k = occ.get(int(self.nxt[i]))
+            if k is not None and k != i:
+                leader[i] = k
+                same = np.array_equal(self.grid.xy[self.nxt[k]] - self.grid.xy[self.cur[k]],
+                                      self.grid.xy[self.nxt[i]] - self.grid.xy[self.cur[i]])
+                delay[i] = 0.0 if same else 0.5
+        return leader, delay
 
     def _arrivals(self, now: float) -> None:
         for i in np.flatnonzero((self.cur == self.goal) & self.pending).tolist():

@@ -5,6 +5,7 @@ Every PyBullet call passes this world's client id. See docs/world-api.md for the
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -27,6 +28,7 @@ from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading
 from sim.world_types import CommandResult, ModelState, SensorFault
 
 MAX_RAYS_PER_CALL = 16_000  # rayTestBatch returns nothing at exactly 16,384 rays and raises above it
+log = logging.getLogger("fleetnav.sim")
 RAYCASTERS = ("embree", "pybullet")
 MAX_SPEED = 50.0  # m/s: any body faster than this is a physics explosion, not motion
 Reading = LidarScan | ImuReading | OdometryReading | ContactReading
@@ -324,7 +326,13 @@ class World:
                 from sim.raycast_embree import EmbreeCaster
 
                 self._embree = EmbreeCaster(self)
-            return self._embree.cast(origins, ends)
+            try:
+                return self._embree.cast(origins, ends)
+            except FleetError as exc:  # geometry Embree cannot read back (a concave mesh with no file): the
+                if exc.code is not ErrorCode.UNSUPPORTED:  # reference caster serves this world instead
+                    raise
+                log.warning("ray casting falls back to PyBullet for world '%s': %s", self.name, exc.message)
+                self.raycaster = "pybullet"
         return self.cast_rays_pybullet(origins, ends)
 
     def cast_rays_pybullet(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -19,6 +19,7 @@ from sim.kinematic_collisions import penetrating_contacts
 from sim.types import Fidelity, LidarScan
 
 WARMUP_STEPS = 3
+RAYCASTER = "embree"  # our World's ray caster (sim_throughput.py --raycaster)
 
 
 @dataclass(frozen=True)
@@ -95,6 +96,7 @@ def run_config(cfg: Config, scene: Scene, budget: Budget) -> Result:
     spec = robot_spec(cfg.beams)
     t0 = time.perf_counter()
     world = scene.world(physics_hz=cfg.physics_hz, fidelity=cfg.drive, spec=spec)
+    world.set_raycaster(RAYCASTER)
     setup_s = time.perf_counter() - t0
     twin = scene.world(physics_hz=cfg.physics_hz, fidelity=cfg.drive, spec=spec)  # raw PyBullet's copy
     try:

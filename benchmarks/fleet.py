@@ -15,6 +15,8 @@ guided Theta* planner, regulated pure pursuit at 0.6 m/s, navigator reactive lay
     .venv/bin/python benchmarks/fleet.py                 # 20, 50, 100 robots × 10 sim-minutes, orca and none
     .venv/bin/python benchmarks/fleet.py --quick         # 20 and 50 robots × 1 sim-minute
     .venv/bin/python benchmarks/fleet.py --robots 50 --minutes 2 --avoidance orca
+    .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 10 --traffic --avoidance orca --baseline-minutes 2
+        # issue 17: the PIBT traffic layer (360-beam lidar at 10 Hz, independent collision check) beside ORCA
 """
 
 from __future__ import annotations
@@ -38,15 +40,16 @@ ROOT = Path(__file__).resolve().parent.parent
 NAVIGATION = {"controller": {"type": "pure_pursuit", "desired_linear_vel": 0.6},
               "planner": {"type": "guided_theta_star"}}
 LIDAR = {"beams": 90, "rate_hz": 5.0}  # the navigators' reactive layer still sees obstacles; 8x fewer rays
+LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
 
 
-def robot_model(tmp: Path) -> str:
-    """diffbot with a lighter lidar, written next to the run (FleetConfig.robot_model takes a path)."""
+def robot_model(tmp: Path, lidar: dict[str, Any] = LIDAR, name: str = "diffbot_bench.yaml") -> str:
+    """diffbot with the given lidar, written next to the run (FleetConfig.robot_model takes a path)."""
     import yaml
 
     spec = yaml.safe_load((ROOT / "configs/robots/diffbot.yaml").read_text())
-    spec["sensors"]["lidar"].update(LIDAR)
-    path = tmp / "diffbot_bench.yaml"
+    spec["sensors"]["lidar"].update(lidar)
+    path = tmp / name
     path.write_text(yaml.safe_dump(spec))
     return str(path)
 
@@ -141,6 +144,12 @@ def main() -> None:
     ap.add_argument("--minutes", type=float, default=None)
     ap.add_argument("--avoidance", nargs="*", default=["orca", "none"])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--traffic", action="store_true",
+                    help="issue 17: also run the PIBT traffic layer (fleet/traffic) with 360-beam lidar at 10 Hz, "
+                         "collisions counted independently from ground-truth poses (_fleet_traffic.py)")
+    ap.add_argument("--traffic-only", action="store_true", help="only the traffic-layer runs")
+    ap.add_argument("--baseline-minutes", type=float, default=None,
+                    help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
     robots = a.robots or ([20, 50] if a.quick else [20, 50, 100])
     minutes = a.minutes or (1.0 if a.quick else 10.0)
@@ -150,9 +159,22 @@ def main() -> None:
     print(" | ".join(cols))
     with tempfile.TemporaryDirectory() as tmp:
         model = robot_model(Path(tmp))
+        full = robot_model(Path(tmp), LIDAR_FULL, "diffbot_full.yaml")
         for n in robots:
+            if a.traffic or a.traffic_only:
+                from _fleet_traffic import run_traffic
+
+                r = run_traffic(n, minutes, a.seed, full)
+                tcols = ("robots", "avoidance", "done", "done_per_min", "in_progress", "robot_collisions",
+                         "obstacle_hits", "closest_robot_gap_m", "closest_obstacle_gap_m", "deadlocks", "resolved",
+                         "unresolved", "longest_deadlock_s", "fields_computed", "rtf", "wall_s")
+                print(" | ".join(tcols))
+                print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols), flush=True)
+                print(" | ".join(cols))
+            if a.traffic_only:
+                continue
             for av in a.avoidance:
-                r = run(n, minutes, av, a.seed, model)
+                r = run(n, a.baseline_minutes or minutes, av, a.seed, model)
                 print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in cols), flush=True)
                 if r["fail_reasons"]:
                     print(f"    failures: {r['fail_reasons']}", flush=True)

@@ -11,11 +11,14 @@ For 1, 10, 100, 500 and 1000 robots, in each drive model, with and without lidar
   peer       pybullet-fleet 0.8.0 on the same scene in /tmp/pbf (_pbf_workload.py), largest kinematic fleet,
              run right after our row for it
 
-Targets (issue 2): kinematic 1000 robots at 10 Hz ≥ 10× real time with collisions resolved; lidar ≥ 0.8 ×
-raw rayTestBatch rays/s (fleets of ≥ 100, whole step counted); dynamic per-step cost ≤ 1.25 × raw.
+Targets (issue 2): kinematic 1000 robots at 10 Hz ≥ 10× real time with collisions resolved; dynamic per-step
+cost ≤ 1.25 × raw. Issue 17: lidar through Embree (the World's default ray caster) ≥ 10× the rays/s of raw
+rayTestBatch (whole step counted); 100 robots × 360 beams at 10 Hz ≥ 5× real time; 1000 robots × 90 beams ≥ 1×.
+`--raycast` adds the ray casters alone on the same recorded lidar rays (_raycast_bench.py), alternating.
 
 Run: .venv/bin/python benchmarks/sim_throughput.py [--quick] [--json out.json] [--peer-robot box|urdf]
-     [--no-peer | --peer-only]. Results and what each side does: docs/benchmarks-sim.md.
+     [--no-peer | --peer-only] [--raycaster embree|pybullet] [--raycast [--raycast-only]].
+Results and what each side does: docs/benchmarks-sim.md.
 """
 
 from __future__ import annotations
@@ -29,7 +32,9 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+import _sim_runs
 from _peer import PeerResult, run_peer  # the _helpers next to this script (its directory is on sys.path)
+from _raycast_bench import CastResult, compare
 from _sim_runs import WARMUP_STEPS, Budget, Config, Result, run_config
 from _sim_scene import make_scene, robot_spec
 from rich.console import Console
@@ -38,7 +43,9 @@ from rich.table import Table
 KINEMATIC_HZ = 10.0  # the peer's setting and the target's
 DYNAMIC_HZ = 100.0  # the World's default: wheeled contact physics needs small steps
 RTF_TARGET = 10.0
-RATIO_TARGET = 0.8  # lidar rays/s vs raw; dynamic: 1 / 1.25 of raw speed
+RATIO_TARGET = 0.8  # dynamic: 1 / 1.25 of raw speed
+LIDAR_RATIO_TARGET = 10.0  # issue 17: Embree lidar rays/s (whole step) vs raw rayTestBatch
+LIDAR_RTF_TARGETS = {(100, 360): 5.0, (1000, 90): 1.0}  # issue 17: (robots, beams) → real-time factor
 
 
 def configs(counts: list[int]) -> list[Config]:
@@ -58,7 +65,9 @@ def target(r: Result) -> tuple[str, bool | None]:
     if c.drive == "kinematic" and c.beams is None and c.robots == 1000:
         return f"RTF ≥ {RTF_TARGET:g}, no overlap", r.rtf >= RTF_TARGET and r.overlaps_end == 0 == r.raw_overlap_steps
     if c.drive == "kinematic" and c.beams is not None and c.robots >= 100:
-        return f"rays/s ≥ {RATIO_TARGET:g}× raw", ratio(r) >= RATIO_TARGET
+        rtf = LIDAR_RTF_TARGETS.get((c.robots, c.beams))
+        text = f"rays/s ≥ {LIDAR_RATIO_TARGET:g}× raw" + (f", RTF ≥ {rtf:g}" if rtf else "")
+        return text, ratio(r) >= LIDAR_RATIO_TARGET and (rtf is None or r.rtf >= rtf)
     if c.drive == "dynamic" and c.beams is None:
         return "cost ≤ 1.25× raw", ratio(r) >= RATIO_TARGET
     return "—", None
@@ -120,6 +129,28 @@ def peer_run(args: argparse.Namespace, n: int, steps: int, console: Console) -> 
     return peer
 
 
+def raycast_section(args: argparse.Namespace, console: Console) -> list[CastResult]:
+    pairs = [(100, 360), (1000, 90)] if args.quick else [(100, 360), (300, 360), (1000, 90), (1000, 360)]
+    out = []
+    for n, beams in pairs:
+        out.append(compare(n, beams, 3.0 if args.quick else 10.0))
+        r = out[-1]
+        console.print(f"  ray casters {n:5d} robots × {beams} beams: embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
+                      f"rayTestBatch {r.rays / r.pybullet_s / 1e6:.2f} Mrays/s, {r.ratio:.1f}× (load "
+                      f"{os.getloadavg()[0]:.2f})")
+    t = Table(title="ray casters on the same lidar rays (one sweep of every robot, alternating backends)")
+    for col in ("robots × beams", "rays", "embree ms/cast", "rayTestBatch ms/cast", "embree Mrays/s",
+                "rayTestBatch Mrays/s", "ratio", "target", "met", "hit/miss agree", "range diff median / p99 mm"):
+        t.add_column(col, justify="right")
+    for r in out:
+        t.add_row(f"{r.robots} × {r.beams}", f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
+                  f"{r.rays / r.embree_s / 1e6:.2f}", f"{r.rays / r.pybullet_s / 1e6:.2f}", f"{r.ratio:.1f}×",
+                  f"≥ {LIDAR_RATIO_TARGET:g}×", "yes" if r.ratio >= LIDAR_RATIO_TARGET else "NO",
+                  f"{100 * r.hit_agree:.2f}%", f"{r.median_mm:.4f} / {r.p99_mm:.2f}")
+    console.print(t)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="1, 10, 100 robots, short runs (a few seconds each)")
@@ -130,7 +161,12 @@ def main() -> None:
     ap.add_argument("--peer-only", action="store_true", help="run only pybullet-fleet (e.g. with --peer-robot urdf)")
     ap.add_argument("--robots", type=int, nargs="+", help="fleet sizes to run (default 1 10 100 500 1000)")
     ap.add_argument("--drive", choices=("kinematic", "dynamic"), help="run only this drive model")
+    ap.add_argument("--raycaster", choices=("embree", "pybullet"), default="embree",
+                    help="the World's ray caster for the lidar rows (default embree)")
+    ap.add_argument("--raycast", action="store_true", help="also compare the ray casters alone on the same rays")
+    ap.add_argument("--raycast-only", action="store_true", help="only the ray-caster comparison")
     args = ap.parse_args()
+    _sim_runs.RAYCASTER = args.raycaster
     counts = args.robots or ([1, 10, 100] if args.quick else [1, 10, 100, 500, 1000])
     budget = Budget(5, 100, 0.5) if args.quick else Budget(10, 300, 3.0)
     peer_steps = 100 if args.quick else 600  # the peer-comparison row runs exactly as many 0.1 s steps
@@ -139,6 +175,9 @@ def main() -> None:
                   f"{time.strftime('%Y-%m-%d %H:%M:%S')}")
     results: list[Result] = []
     peer: PeerResult | str | None = None
+    casts = raycast_section(args, console) if args.raycast or args.raycast_only else []
+    if args.raycast_only:
+        return
     if args.peer_only:
         peer = peer_run(args, counts[-1], peer_steps, console)
     for cfg in [] if args.peer_only else [c for c in configs(counts) if args.drive in (None, c.drive)]:
@@ -157,7 +196,8 @@ def main() -> None:
     if args.json:
         rows = [{**asdict(r), "rtf": r.rtf, "rtf_cpu": r.rtf_cpu, "robot_steps_per_s": r.robot_steps_per_s,
                  "ratio": ratio(r), "target": target(r)[0], "met": target(r)[1]} for r in results]
-        args.json.write_text(json.dumps({"results": rows, "peer": asdict(peer) if isinstance(peer, PeerResult)
+        args.json.write_text(json.dumps({"results": rows, "raycast": [asdict(c) for c in casts],
+                                         "peer": asdict(peer) if isinstance(peer, PeerResult)
                                          else peer, "load": os.getloadavg()}, indent=1), encoding="utf-8")
 
 

@@ -8,8 +8,10 @@ Two windows on the same world, one after the other, with the same command load:
   baseline  the commands enter in-process (FleetService.submit → safety envelope), no Zenoh at all;
   zenoh     a ZenohBridge serves the world on 127.0.0.1; agent processes (fleet.agent SDK) publish cmd_vel and a
             subscriber process receives every robot's odom and scan.
-Figures: command-to-applied latency p50/p99 (agent's send → the control tick that applies it; the 10 Hz control
-tick alone costs 0–100 ms, which the baseline shows), dropped commands (sent − received, target 0), publish
+Figures: command-to-applied latency p50/p99 (agent's send → the physics step that applies it: since issue 17 a
+command reaches the world's command when the sim thread drains it, before the next physics step, not at the
+10 Hz control tick), per stage (send → bridge receive → envelope → applied, `--stages`), dropped commands
+(sent − received, target 0), publish
 rate sustained (readings the world produced vs published vs received), CPU (cores busy) per process. The
 machine is shared: the load average is printed with the figures.
 
@@ -175,6 +177,7 @@ def baseline(svc: Any, names: list[str], per_agent: int, duration: float) -> dic
 
     gate = Gate(svc, lockstep=False, timeout_s=1.0, on_tick=lambda *_: None, on_hung=lambda *_: None)
     svc.call(lambda: setattr(svc, "control_gate", gate))
+    svc.call(lambda: svc.step_listeners.append(gate.stepped))  # applied = the physics step after acceptance
     stop = threading.Event()
 
     def commander() -> None:
@@ -186,7 +189,7 @@ def baseline(svc: Any, names: list[str], per_agent: int, duration: float) -> dic
 
                 def apply(name: str = name, i: int = i, sent: float = sent) -> None:
                     svc.drive(name, V, W, client=f"base{i // per_agent}")
-                    gate.applied(sent)
+                    gate.applied(sent, sent)  # in-process: received the moment it is sent
 
                 gate.run(apply)
             k += 1
@@ -199,6 +202,7 @@ def baseline(svc: Any, names: list[str], per_agent: int, duration: float) -> dic
     stop.set()
     th.join()
     svc.call(lambda: setattr(svc, "control_gate", None))
+    svc.call(lambda: svc.step_listeners.remove(gate.stepped))
     for c in range(0, len(names), per_agent):  # hand the robots back: the agents take them over next
         svc.release_client(f"base{c // per_agent}", "baseline window over")
     return {"rtf": w.rtf, "cpu": w.cpu, "lat": gate.latency_stats(), "produced": w.produced}
@@ -223,8 +227,9 @@ def over_zenoh(svc: Any, names: list[str], per_agent: int, duration: float, proc
         for a in agents:
             read_json(a)
         time.sleep(1.0)  # warm-up: every agent sending
-        bridge.gate.latencies.clear()
-        bridge.gate.accept_latencies.clear()
+        for q in (bridge.gate.latencies, bridge.gate.accept_latencies, bridge.gate.receive_latencies,
+                  bridge.gate.envelope_latencies, bridge.gate.apply_latencies):
+            q.clear()
         assert sub.stdin is not None
         sub.stdin.write("go\n")
         sub.stdin.flush()
@@ -275,6 +280,10 @@ def main() -> None:
     ap.add_argument("--world", default="empty")
     ap.add_argument("--per-agent", type=int, default=10)
     ap.add_argument("--tag", default="0")
+    ap.add_argument("--stages", action="store_true",
+                    help="also print the per-stage latency (send → receive → envelope → applied) and the issue-17 "
+                         "targets (world ≥ 0.98× real time, command→applied p99 ≤ 15 ms, 0 dropped)")
+    ap.add_argument("--json", type=Path, help="write every figure to this JSON file")
     a = ap.parse_args()
     if a.role == "agents":
         return role_agents(a.connect, a.robots.split(","), a.per_agent, float(a.duration), a.tag)
@@ -293,6 +302,27 @@ def main() -> None:
         finally:
             svc.close()
     report(n, a.beams, a.per_agent, duration, procs, base, zen)
+    if a.stages:
+        report_stages(base, zen)
+    if a.json:
+        a.json.write_text(json.dumps({"robots": n, "beams": a.beams, "baseline": base, "zenoh": zen,
+                                      "load": os.getloadavg()}, indent=1, default=str), encoding="utf-8")
+
+
+def report_stages(b: dict[str, Any], z: dict[str, Any]) -> None:
+    """Issue 17: where a command's time goes, and the targets held to the Zenoh window."""
+    print(f"\n{'command stages (p50 / p99, ms)':34}{'in-process (baseline)':>24}{'over zenoh':>26}")
+    for name, key in (("send → bridge received", "receive"), ("received → envelope", "envelope"),
+                      ("envelope → applied (physics step)", "apply"), ("send → applied", "applied")):
+        print(f"{name:34}{lat(b, key):>24}{lat(z, key):>26}")
+    p99 = z["lat"]["applied"]["p99_ms"]
+    dropped = z["sent"] - z["got"]
+    checks = [("world real-time factor ≥ 0.98", f"{z['rtf']:.3f}", z["rtf"] >= 0.98),
+              ("command→applied p99 ≤ 15 ms", f"{p99}", p99 is not None and p99 <= 15.0),
+              ("0 commands dropped", f"{dropped}", dropped == 0 and z["lost"] == 0)]
+    print()
+    for name, value, ok in checks:
+        print(f"{name:34}{value:>24}{'met' if ok else 'NOT MET':>26}")
 
 
 def report(n: int, beams: int, per_agent: int, duration: float, procs: int, b: dict[str, Any],

@@ -66,6 +66,22 @@ class ControlLoop:
         for s in self.sources:
             s.release(robot, reason)
 
+    def apply_manual(self, robot: str) -> None:
+        """A manual command takes effect at the next physics step, not the next control tick: it goes through
+        the safety envelope (e-stop, geofence) into the world's command now. Avoidance, when configured, filters
+        it with everyone else's at the next tick (≤ one control period later)."""
+        svc = self.service
+        world = svc.world
+        m = svc.safety.active_manual(robot, world.time)
+        if m is None or any(s.owner(robot) is not None for s in self.sources):
+            return  # autonomy drives this robot: the tick decides
+        i, f = world.table.index(robot), world.table.f
+        gv, gw, why = svc.safety.gate(robot, m.v, m.w, float(f["x"][i]), float(f["y"][i]), float(f["yaw"][i]))
+        if why == "e-stop":
+            world.emergency_stop(robot)
+        else:
+            world.set_cmd_vel(robot, gv, gw)
+
     # ---- the tick --------------------------------------------------------------------------------------
 
     def tick(self) -> None:
@@ -81,7 +97,11 @@ class ControlLoop:
                 m = safety.active_manual(robot, now)  # None once the deadman lapsed
                 desired[robot] = (m.v, m.w) if m is not None else (0.0, 0.0)
         if self.avoidance is not None and len(desired) > 1:  # 3. keep clear of each other
-            desired = self.avoidance.filter(svc, desired)
+            # Robots of an exclusive source (the traffic layer) are kept apart by it: avoidance leaves them be.
+            fixed = {r: desired.pop(r) for r in list(desired)
+                     if any(getattr(s, "exclusive", False) and s.owner(r) is not None for s in self.sources)}
+            desired = self.avoidance.filter(svc, desired) if len(desired) > 1 else desired
+            desired.update(fixed)
         self.last_desired = desired
         f = world.table.f
         for robot, (v, w) in desired.items():  # 4. the envelope gates everything

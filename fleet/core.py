@@ -64,6 +64,8 @@ class ServiceCore:
         # Hooks for front doors, run on the sim thread. Listeners get each published snapshot; a gate, when
         # set, is called before every control tick and may block (lock-step agents over Zenoh).
         self.tick_listeners: list[Callable[[FleetSnapshot], None]] = []
+        # Called after every physics step (sim thread): a command accepted before the step took effect in it.
+        self.step_listeners: list[Callable[[], None]] = []
         self.control_gate: Callable[[float], None] | None = None
         self._build(self.config.world)
 
@@ -304,8 +306,9 @@ class ServiceCore:
             if self._deadline != math.inf:
                 self.check_budget()
             tick = w.step_count % self._steps_per_control == 0
-            # Callers wait at most one physics step, even when the sim lags; in lock-step, commands apply only at
-            # control ticks so a run does not depend on when messages arrive.
+            # Callers wait at most one physics step, even when the sim lags: a manual command drained here reaches
+            # the world's command at once (ControlLoop.apply_manual), so this very step integrates it. In
+            # lock-step, commands apply only at control ticks so a run does not depend on when messages arrive.
             if self._thread is not None and not self._draining and (tick or self.control_gate is None):
                 self._drain()
             if tick:
@@ -315,6 +318,8 @@ class ServiceCore:
             before = w.table.f["x"].copy(), w.table.f["y"].copy()
             w.step()
             self.control.after_step(before)  # battery, collisions, near misses
+            for hook in self.step_listeners:
+                hook()
             if w.step_count % self._steps_per_control == 0:
                 self._publish()
                 for listener in self.tick_listeners:

@@ -77,6 +77,7 @@ class RobotOps(ServiceCore):
                                                                  duration)
             if self.control.owner(robot) not in ("idle", "manual"):
                 self.control.release(robot, f"manual takeover by client '{client}'")
+            self.control.apply_manual(robot)  # the next physics step integrates it (issue 17)
             return CommandResult(robot, v, w, av, aw, clamped, reason, self.world.time)
 
         return self.call(do)

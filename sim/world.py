@@ -5,6 +5,7 @@ Every PyBullet call passes this world's client id. See docs/world-api.md for the
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -27,6 +28,8 @@ from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading
 from sim.world_types import CommandResult, ModelState, SensorFault
 
 MAX_RAYS_PER_CALL = 16_000  # rayTestBatch returns nothing at exactly 16,384 rays and raises above it
+log = logging.getLogger("fleetnav.sim")
+RAYCASTERS = ("embree", "pybullet")
 MAX_SPEED = 50.0  # m/s: any body faster than this is a physics explosion, not motion
 Reading = LidarScan | ImuReading | OdometryReading | ContactReading
 
@@ -36,13 +39,15 @@ class World:
 
     def __init__(self, *, physics_hz: float = 100.0, seed: int = 0, gui: bool = False,
                  fidelity: Fidelity = "kinematic", gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
-                 ground: bool = True, name: str = "world") -> None:
+                 ground: bool = True, name: str = "world", raycast: str = "embree") -> None:
         if not (1.0 <= physics_hz <= 10_000.0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"physics_hz must be in [1, 10000], got {physics_hz}")
         if fidelity not in ("kinematic", "dynamic"):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown fidelity '{fidelity}'",
                              "use 'kinematic' or 'dynamic'")
         self.name = name
+        self._embree: Any = None
+        self.set_raycaster(raycast)
         self.client = p.connect(p.GUI if gui else p.DIRECT)
         self.physics_hz = float(physics_hz)
         self.dt = 1.0 / self.physics_hz
@@ -307,8 +312,32 @@ class World:
 
     # ---- sensors ---------------------------------------------------------------------------------------
 
+    def set_raycaster(self, name: str) -> None:
+        """Pick the ray-casting backend of lidar and cast_rays: "embree" (fleets; sim/raycast_embree.py) or
+        "pybullet" (rayTestBatch, the reference). They agree within 1 mm on flat geometry; on curved shapes
+        Embree is exact and Bullet's GJK ray test is off by up to a few mm (docs/benchmarks-sim.md)."""
+        if name not in RAYCASTERS:
+            raise unknown_name("ray caster", name, RAYCASTERS, ErrorCode.INVALID_ARGUMENT)
+        self.raycaster = name
+
     def cast_rays(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Batched ray cast: (hit fraction in [0, 1], body uid or -1) per ray, split into ≤16,000-ray calls."""
+        """Batched ray cast: (hit fraction in [0, 1], body uid or -1) per ray, by the selected backend."""
+        if self.raycaster == "embree":
+            if self._embree is None:
+                from sim.raycast_embree import EmbreeCaster
+
+                self._embree = EmbreeCaster(self)
+            try:
+                return self._embree.cast(origins, ends)
+            except FleetError as exc:  # geometry Embree cannot read back (a concave mesh with no file): the
+                if exc.code is not ErrorCode.UNSUPPORTED:  # reference caster serves this world instead
+                    raise
+                log.warning("ray casting falls back to PyBullet for world '%s': %s", self.name, exc.message)
+                self.raycaster = "pybullet"
+        return self.cast_rays_pybullet(origins, ends)
+
+    def cast_rays_pybullet(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """PyBullet rayTestBatch, split into ≤16,000-ray calls."""
         n = len(origins)
         fractions = np.ones(n)
         uids = np.full(n, -1, dtype=np.int64)

@@ -116,6 +116,7 @@ class ZenohBridge:
         self._subscribe_world()
         svc.tick_listeners.append(self._on_snapshot)
         svc.control_gate = self.gate
+        svc.step_listeners.append(self.gate.stepped)
         self._unsubscribe.append(svc.events.subscribe(self._on_event))
         for name in svc.world.robot_names():
             self._robot_up(name)
@@ -130,6 +131,8 @@ class ZenohBridge:
             svc.tick_listeners.remove(self._on_snapshot)
         if svc.control_gate is self.gate:
             svc.control_gate = None
+        if self.gate.stepped in svc.step_listeners:
+            svc.step_listeners.remove(self.gate.stepped)
 
     def _apply_policy(self) -> None:
         """Sim thread: the config's lease and rate policy over the fleet's (again after a reset rebuilds the

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -127,12 +128,14 @@ class Commands:
 
     def submit_drive(self, key: str, agent: str, robot: str, v: float, w: float, *, tick: int | None = None,
                      sent: float | None = None, duration: float | None = None) -> None:
+        received = time.time()
+
         def apply() -> None:  # sim thread
             try:
                 self.service.drive(robot, v, w, client=agent, duration=duration)
                 self.stats.applied += 1
                 if sent is not None:
-                    self.gate.applied(sent)
+                    self.gate.applied(sent, received)
             finally:
                 if tick is not None:  # a rejected command still answers its lock-step tick
                     self.gate.answered(agent, robot, tick)

@@ -39,9 +39,13 @@ class Gate:
         self._work: list[tuple[Callable[[], Any], Future[Any]]] = []
         self.agents: dict[str, set[str]] = {}  # lock-step agent → its robots
         self._answered: dict[tuple[str, str], int] = {}  # (agent, robot) → last tick answered
-        self._sent: list[float] = []  # wall send times of commands accepted since the last control tick
-        self.latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)  # command sent → applied by a control tick, s
+        self._sent: list[tuple[float, float]] = []  # (sent, accepted) wall times of commands not yet stepped
+        self.latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)  # command sent → applied by a physics step, s
         self.accept_latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)  # sent → through the envelope, s
+        # Per stage (issue 17), s: sent → received by the bridge, received → envelope, envelope → applied.
+        self.receive_latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)
+        self.envelope_latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)
+        self.apply_latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)
         self.ticks = 0
         phys, ctrl = service.config.physics_hz, service.config.control_hz
         self._steps_per_tick = max(1, round(phys / ctrl))  # as ServiceCore counts control ticks
@@ -86,10 +90,23 @@ class Gate:
         key = (agent, robot)
         self._answered[key] = max(tick, self._answered.get(key, -1))
 
-    def applied(self, sent: float) -> None:
-        """A command sent at wall time `sent` passed the envelope just now; the next control tick applies it."""
-        self.accept_latencies.append(time.time() - sent)
-        self._sent.append(sent)
+    def applied(self, sent: float, received: float | None = None) -> None:
+        """A command sent at wall time `sent` (received by the bridge at `received`) passed the envelope just
+        now; it is in the world's command already, and the next physics step applies it (`stepped`)."""
+        now = time.time()
+        self.accept_latencies.append(now - sent)
+        if received is not None:
+            self.receive_latencies.append(received - sent)
+            self.envelope_latencies.append(now - received)
+        self._sent.append((sent, now))
+
+    def stepped(self) -> None:
+        """After each physics step (ServiceCore.step_listeners): the commands accepted before it are applied."""
+        if self._sent:
+            wall = time.time()
+            self.latencies.extend(wall - s for s, _ in self._sent)
+            self.apply_latencies.extend(wall - a for _, a in self._sent)
+            self._sent.clear()
 
     def forget_ticks(self) -> None:
         """The world was rebuilt: tick numbers start again from 0."""
@@ -105,10 +122,8 @@ class Gate:
         self._run_work()
         if self.lockstep and self.agents:
             self._wait_for_agents(self.tick_of(self.service.world.step_count), now)
-        if self._sent:  # everything accepted so far is applied by the control tick that follows
-            wall = time.time()
-            self.latencies.extend(wall - s for s in self._sent)
-            self._sent.clear()
+        if self.service.step_listeners.count(self.stepped) == 0:
+            self.stepped()  # not hooked to physics steps: count the control tick that follows as the applier
 
     def _missing(self, tick: int) -> list[str]:
         names = set(self.service.world.table.names)
@@ -142,8 +157,12 @@ class Gate:
             self.on_hung(agent, robots)
 
     def latency_stats(self) -> dict[str, Any]:
-        """Command latency percentiles, ms: to the envelope (`accepted`) and to the control tick (`applied`)."""
-        return {"applied": percentiles(self.latencies), "accepted": percentiles(self.accept_latencies)}
+        """Command latency percentiles, ms: from the send to the envelope (`accepted`) and to the physics step
+        that applies it (`applied`); per stage: send → bridge (`receive`), bridge → envelope (`envelope`),
+        envelope → applied (`apply`)."""
+        return {"applied": percentiles(self.latencies), "accepted": percentiles(self.accept_latencies),
+                "receive": percentiles(self.receive_latencies), "envelope": percentiles(self.envelope_latencies),
+                "apply": percentiles(self.apply_latencies)}
 
 
 def percentiles(samples: Iterable[float]) -> dict[str, Any]:

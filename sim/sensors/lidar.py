@@ -39,27 +39,38 @@ class LidarConfig:
 
 def cast_scans(table: RobotTable, rows: np.ndarray, configs: list[LidarConfig], cast: RayCaster,
                rng: np.random.Generator, stamp: float) -> list[LidarScan]:
-    """Cast the beams of every robot in `rows` (indices into `table`) in one batch and build scans."""
+    """Cast the beams of every robot in `rows` (indices into `table`) in one batch and build scans. Rays are
+    built in numpy per lidar model (robots of one model share a config); only the scans are per robot."""
     f = table.f
-    origins, ends, spans = [], [], []
-    start = 0
-    for i in rows:
-        cfg = configs[i]
-        c, s = math.cos(f["yaw"][i]), math.sin(f["yaw"][i])
-        ox, oy = f["x"][i] + cfg.x_offset * c, f["y"][i] + cfg.x_offset * s
-        world_angles = cfg.angles + f["yaw"][i]
-        dirs = np.column_stack([np.cos(world_angles), np.sin(world_angles), np.zeros(world_angles.size)])
-        base = np.array([ox, oy, cfg.height])
-        # Rays start at range_min: a real lidar cannot see closer, and it keeps rays out of its own housing.
-        origins.append(base + dirs * cfg.range_min)
-        ends.append(base + dirs * cfg.range_max)
-        spans.append((start, start + cfg.angles.size))
-        start += cfg.angles.size
-    if not spans:
+    rows = np.asarray(rows, dtype=np.int64)
+    if rows.size == 0:
         return []
+    groups: dict[tuple[float, ...], list[int]] = {}
+    for k, i in enumerate(rows.tolist()):
+        c = configs[i]
+        groups.setdefault((c.angles.size, c.angle_min, c.angle_increment, c.range_min, c.range_max, c.height,
+                           c.x_offset), []).append(k)
+    origins, ends = [], []
+    spans = np.zeros((rows.size, 2), dtype=np.int64)
+    start = 0
+    for ks in groups.values():
+        idx = rows[ks]
+        cfg = configs[int(idx[0])]
+        yaw = f["yaw"][idx]
+        ox, oy = f["x"][idx] + cfg.x_offset * np.cos(yaw), f["y"][idx] + cfg.x_offset * np.sin(yaw)
+        wa = yaw[:, None] + cfg.angles[None, :]
+        dirs = np.stack([np.cos(wa), np.sin(wa), np.zeros_like(wa)], axis=-1)  # (robots, beams, 3)
+        base = np.stack([ox, oy, np.full(idx.size, cfg.height)], axis=-1)[:, None, :]
+        # Rays start at range_min: a real lidar cannot see closer, and it keeps rays out of its own housing.
+        origins.append((base + dirs * cfg.range_min).reshape(-1, 3))
+        ends.append((base + dirs * cfg.range_max).reshape(-1, 3))
+        nb = cfg.angles.size
+        spans[ks, 0] = start + nb * np.arange(idx.size)
+        spans[ks, 1] = spans[ks, 0] + nb
+        start += nb * idx.size
     fractions, uids = cast(np.concatenate(origins), np.concatenate(ends))
     scans = []
-    for (a, b), i in zip(spans, rows, strict=True):
+    for (a, b), i in zip(spans.tolist(), rows.tolist(), strict=True):
         cfg = configs[i]
         hit = uids[a:b] >= 0
         ranges = cfg.range_min + fractions[a:b] * (cfg.range_max - cfg.range_min)

@@ -1,0 +1,71 @@
+"""The traffic graph: a 4-connected grid of cells on the static map where a robot's footprint fits, with
+shared cost-to-go fields (planning/distance_fields.py)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.sparse import csr_matrix
+
+from planning.distance_fields import DistanceFields
+from sim.errors import ErrorCode, FleetError
+
+if TYPE_CHECKING:
+    from fleet.avoidance.clearance import StaticClearance
+
+
+class TrafficGrid:
+    """Cells of side `cell` whose centres are at least `radius` + `margin` from every static obstacle."""
+
+    def __init__(self, clearance: StaticClearance, bounds: tuple[float, float, float, float], cell: float,
+                 radius: float, margin: float = 0.05) -> None:
+        if not (math.isfinite(cell) and cell > 0):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"cell must be > 0 m, got {cell}")
+        self.cell = cell
+        xmin, ymin, xmax, ymax = bounds
+        self.origin = (xmin, ymin)
+        self.nx, self.ny = int((xmax - xmin) // cell), int((ymax - ymin) // cell)
+        ix, iy = np.meshgrid(np.arange(self.nx), np.arange(self.ny), indexing="ij")
+        centres = np.column_stack([xmin + (ix.ravel() + 0.5) * cell, ymin + (iy.ravel() + 0.5) * cell])
+        free = clearance.query(centres)[0] >= radius + margin
+        self.index = np.full(self.nx * self.ny, -1, np.int64)  # grid cell → node, -1 where blocked
+        self.index[free] = np.arange(int(free.sum()))
+        self.xy = centres[free]  # node → centre
+        self.cells = np.flatnonzero(free)
+        n = len(self.cells)
+        rows, cols = [], []
+        gx, gy = self.cells // self.ny, self.cells % self.ny
+        for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            ok = (gx + dx >= 0) & (gx + dx < self.nx) & (gy + dy >= 0) & (gy + dy < self.ny)
+            other = np.where(ok, self.index[np.clip(gx + dx, 0, self.nx - 1) * self.ny
+                                            + np.clip(gy + dy, 0, self.ny - 1)], -1)
+            keep = other >= 0
+            # The straight segment between the centres must clear obstacles too (a shelf corner between them).
+            a = self.xy[np.flatnonzero(keep)]
+            b = self.xy[other[keep]]
+            ts = np.linspace(0.0, 1.0, 11)[1:-1]
+            pts = (a[:, None, :] + ts[None, :, None] * (b - a)[:, None, :]).reshape(-1, 2)
+            ok_edge = (clearance.query(pts)[0] >= radius + margin).reshape(len(a), -1).all(axis=1)
+            keep[np.flatnonzero(keep)[~ok_edge]] = False
+            rows.append(np.flatnonzero(keep))
+            cols.append(other[keep])
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        self.adjacency = csr_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        self.neighbours = [self.adjacency.indices[self.adjacency.indptr[i]:self.adjacency.indptr[i + 1]].tolist()
+                           for i in range(n)]
+        self.fields = DistanceFields(self.adjacency)
+
+    def __len__(self) -> int:
+        return len(self.cells)
+
+    def node_at(self, x: float, y: float) -> int:
+        """The node whose cell contains (x, y), or -1 (outside or blocked)."""
+        ix, iy = int((x - self.origin[0]) // self.cell), int((y - self.origin[1]) // self.cell)
+        if not (0 <= ix < self.nx and 0 <= iy < self.ny):
+            return -1
+        return int(self.index[ix * self.ny + iy])
+
+    def nearest_node(self, x: float, y: float) -> int:
+        return int(np.argmin(np.hypot(self.xy[:, 0] - x, self.xy[:, 1] - y)))

@@ -1,0 +1,80 @@
+"""PIBT: priority inheritance with backtracking (Okumura et al., IJCAI 2019 / AIJ 2022), one synchronous step.
+
+Every agent, highest priority first, takes the free neighbouring node (or its own) closest to its goal by the
+shared cost-to-go field. An agent whose wanted node is occupied by an undecided agent lends that agent its
+priority, and the lower agent must move out of the way (never into the pusher's node: no swaps); if it cannot,
+the pusher backtracks and tries its next node. Vertex and swap conflicts are impossible by construction, and
+with priorities that grow while an agent is away from its goal, every agent reaches its goal in finite time on
+graphs where adjacent nodes lie on a common cycle (the lifelong-MAPF property the traffic layer relies on).
+
+One change for real robots: an agent does not follow another around a closed loop of moves (a rotation), so
+a robot entering a node another robot is vacating always has a leader that started first (traffic/motion.py
+times the followers); rotations are not needed for the reachability argument (a push chain ends at a free
+node, never in a loop).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+
+class PIBT:
+    def __init__(self, neighbours: Sequence[Sequence[int]], field: Callable[[int], np.ndarray], seed: int = 0) -> None:
+        self.neighbours = neighbours
+        self.field = field
+        self.rng = np.random.default_rng(seed)
+        self.pushes: list[tuple[int, int]] = []  # (pusher, pushed) of the last step: priority inheritance
+
+    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray) -> list[int]:
+        """The next node of every agent (its own node when it waits)."""
+        self.cur, self.goals = list(cur), list(goals)
+        self.occ = {v: i for i, v in enumerate(self.cur)}
+        self.nxt = [-1] * len(self.cur)
+        self.reserved: dict[int, int] = {}
+        self.pushes = []
+        for i in np.argsort(-priority, kind="stable").tolist():
+            if self.nxt[i] < 0:
+                self._pibt(i, None)
+        return self.nxt
+
+    def _pibt(self, i: int, pusher: int | None) -> bool:
+        c = self.cur[i]
+        cands = [c, *self.neighbours[c]]
+        dist = self.field(self.goals[i])
+        order = np.lexsort((self.rng.random(len(cands)), dist[cands]))  # nearest to goal, random ties
+        for v in (cands[k] for k in order):
+            if v in self.reserved or (pusher is not None and v == self.cur[pusher]):
+                continue
+            k = self.occ.get(v)
+            if k is not None and k != i and self.nxt[k] >= 0 and self._closes_loop(i, k):
+                continue
+            self.reserved[v] = i
+            self.nxt[i] = v
+            if k is not None and k != i and self.nxt[k] < 0:
+                self.pushes.append((i, k))
+                if not self._pibt(k, i):  # k stays put: v is taken after all, try the next node
+                    if self.reserved.get(v) == i:
+                        del self.reserved[v]
+                    self.nxt[i] = -1
+                    continue
+            return True
+        self.nxt[i] = c  # nowhere to go: wait (a pusher's claim on c is overridden, and it backtracks)
+        self.reserved[c] = i
+        return False
+
+    def _closes_loop(self, i: int, k: int) -> bool:
+        """Would i entering k's node (k already moving on) close a loop of agents following each other?"""
+        m = k
+        for _ in range(len(self.cur)):
+            v = self.nxt[m]
+            if v < 0 or v == self.cur[m]:
+                return False
+            m2 = self.occ.get(v)
+            if m2 is None:
+                return False
+            if m2 == i:
+                return True
+            m = m2
+        return True

@@ -94,10 +94,10 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
         return None
     rmax = min(max_range_for_step, float(np.hypot(pts[:, 0], pts[:, 1]).max()))
     step = math.acos(max(-1.0, 1.0 - res * res / (2.0 * max(rmax, res) ** 2)))
-    na = int(math.ceil(window_yaw / step))
+    na = math.ceil(window_yaw / step)
     angles = guess[2] + step * np.arange(-na, na + 1)
-    nw = int(math.ceil(window_xy / res))
-    depth = top_level if top_level is not None else max(0, int(math.ceil(math.log2(max(2 * nw + 1, 1)))))
+    nw = math.ceil(window_xy / res)
+    depth = top_level if top_level is not None else max(0, math.ceil(math.log2(max(2 * nw + 1, 1))))
     # every rotation's points in cells, relative to the window's lowest corner
     c, s = np.cos(angles), np.sin(angles)
     rx = c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1] + guess[0]
@@ -107,8 +107,8 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
     size = 2 * nw + 1
     block = 1 << depth
     starts = np.arange(0, size, block)
-    ox, oy = np.meshgrid(starts, starts, indexing="ij")
-    ox, oy = ox.ravel(), oy.ravel()
+    gx, gy = np.meshgrid(starts, starts, indexing="ij")
+    ox, oy = gx.ravel(), gy.ravel()
     top = grid.level(depth)
     # top level: every rotation × every block, vectorised
     sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None], base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n

@@ -182,7 +182,8 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
             j = min(max(j, 1), len(t) - 1)
             out.append(_interp(t[j - 1], c[j - 1], t[j], c[j], ts))
         else:  # bad or out-of-range stamps: the latest sample before the line, in file order
-            out.append(tuple(c[max(before[k] - 1, 0)]))  # type: ignore[arg-type]
+            q = c[max(before[k] - 1, 0)]
+            out.append((float(q[0]), float(q[1]), float(q[2])))
     valid = np.zeros(n, dtype=bool)
     valid[1:] = np.diff(np.array(before)) > 0  # a fresh ODOM sample since the previous scan
     return out, valid

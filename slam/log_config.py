@@ -21,6 +21,8 @@ class FrontEndConfig(StrictModel):
     wide_window_xy: float = Field(2.5, gt=0, description="window when there is no odometry or the match "
                                   "in the normal window is poor, m")
     wide_window_yaw: float = Field(math.radians(85), gt=0, description="rad")
+    wide_min_score: float = Field(0.25, gt=0, lt=1, description="… in the wide window")
+    wide_points: int = Field(80, ge=10, description="scan points scored by the wide search")
     min_score: float = Field(0.35, gt=0, lt=1, description="a match below this mean hit likelihood is poor")
     odometry_trust_xy: float = Field(0.05, ge=0, description="score penalty per m² away from the odometry "
                                      "guess (0: odometry only seeds the window)")

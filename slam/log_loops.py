@@ -160,6 +160,7 @@ class LoopFinder:
             return self._record(Closure(source, target, relative, score, inliers, rmse, False,
                                         "inconsistent_after_optimisation"))
         self.slam.refresh_poses()
+        self.slam.edges.append((target, source, relative, covariance))
         self._last_closure_path = self.slam.path[source]
         return self._record(Closure(source, target, relative, score, inliers, rmse, True, "accepted"))
 

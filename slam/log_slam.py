@@ -61,6 +61,7 @@ class LogSlam:
         self.stamps: list[float] = []
         self.odometry: list[se2.PoseTuple | None] = []
         self.stats = FrontEndStats()
+        self.edges: list[tuple[int, int, se2.PoseTuple, np.ndarray]] = []  # kept factors, for graph.g2o
         self._start = (initial_pose or Pose2D()).as_tuple()
         self._local: tuple[MatchGrid, IcpTarget] | None = None
         self._local_at = -1  # node index the local map was last built at
@@ -86,15 +87,19 @@ class LogSlam:
             return Pose2D(*pose)
         prev = self.poses[-1]
         has_odom = odom_valid and o is not None and self.odometry[-1] is not None
-        delta = se2_between(self.odometry[-1], o) if has_odom else (0.0, 0.0, 0.0)  # type: ignore[arg-type]
+        if has_odom:
+            delta = se2_between(self.odometry[-1], o)  # type: ignore[arg-type]
+        else:  # no odometry: constant velocity (the previous step) seeds the wide window
+            delta = se2_between(self.poses[-2], prev) if i >= 2 else (0.0, 0.0, 0.0)
         guess = se2_compose(prev, delta)
-        pose, cov = self._match(pts, guess, has_odom)
-        if pose is None:
+        matched, cov = self._match(pts, guess, has_odom)
+        if matched is None:
             self.stats.odometry_only += 1
             pose, rel, cov = guess, delta, self._odom_cov
         else:
-            rel = se2_between(prev, pose)
+            pose, rel = matched, se2_between(prev, matched)
         self.graph.add_pose(pose, rel, cov)
+        self.edges.append((i - 1, i, rel, cov))
         self._append(scan.stamp, pose, pts, no_ret, o, self.path[-1] + math.hypot(rel[0], rel[1]))
         if cfg.loops.enabled:
             self.loops.step(i)
@@ -132,8 +137,9 @@ class LogSlam:
                          prior_weight_yaw=fe.odometry_trust_yaw)
         wide = res is None
         if wide:
-            res = search(grid, sub, guess, window_xy=fe.wide_window_xy, window_yaw=fe.wide_window_yaw,
-                         min_score=fe.min_score, top_level=None)
+            res = search(grid, subsample(pts, fe.wide_points), guess, window_xy=fe.wide_window_xy,
+                         window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
+                         max_range_for_step=5.0)
         if res is None:
             return None, self._odom_cov
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,

@@ -76,17 +76,19 @@ def _open_lines(p: Path) -> list[str]:
             with gzip.open(p, "rt", encoding="utf-8", errors="replace") as f:
                 return f.read().splitlines()
         return p.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as exc:
-        raise FleetError(ErrorCode.NOT_FOUND, f"cannot read {p}: {exc.strerror}", "check the path") from exc
-    except (EOFError, gzip.BadGzipFile) as exc:
+    except (EOFError, gzip.BadGzipFile) as exc:  # BadGzipFile is an OSError: catch it first
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}: not a readable gzip file ({exc})",
                          "give a .log or a complete .log.gz") from exc
+    except OSError as exc:
+        raise FleetError(ErrorCode.NOT_FOUND, f"cannot read {p}: {exc.strerror}", "check the path") from exc
 
 
 def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float = math.pi,
                 robot: str = "carmen", odometry: OdometrySource = "odom_increments",
-                laser: LaserSide = "front") -> CarmenLog:
-    """Scans of one laser (`laser`: front or rear) with odometry from `odometry` (see the module doc)."""
+                laser: LaserSide = "front", flaser_angle_min: float | None = None) -> CarmenLog:
+    """Scans of one laser (`laser`: front or rear) with odometry from `odometry` (see the module doc).
+    FLASER/RLASER beams span `flaser_fov` from the first to the last beam, starting at `flaser_angle_min`
+    (default −fov/2, centred)."""
     if odometry not in ("odom_increments", "laser_pose", "none"):
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown odometry source {odometry!r}",
                          "use one of: odom_increments, laser_pose, none")
@@ -107,7 +109,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
                     raise IndexError("ODOM needs x y theta tv rv accel timestamp")
                 parsed.append(_Line("ODOM", no, pose=(v[0], v[1], v[2]), stamp=v[6]))
             elif tok[0] in kinds:
-                item = _laser(tok, max_range, flaser_fov, robot, rear=tok[0] in REAR)
+                item = _laser(tok, max_range, flaser_fov, robot, tok[0] in REAR, flaser_angle_min)
                 item.no = no
                 parsed.append(item)
                 types[tok[0]] = types.get(tok[0], 0) + 1
@@ -131,7 +133,8 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
         if reference is None:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}: RAWLASER lines carry no pose",
                              "use odometry: odom_increments or none")
-        poses, valid = [tuple(r) for r in reference], np.ones(len(scans), dtype=bool)
+        poses = [(float(r[0]), float(r[1]), float(r[2])) for r in reference]
+        valid = np.ones(len(scans), dtype=bool)
     else:
         poses, valid = [None] * len(scans), np.zeros(len(scans), dtype=bool)
     records = [ScanRecord(s.scan, None if q is None else Pose2D(*q))  # type: ignore[arg-type]
@@ -202,7 +205,8 @@ def _ranges(values: list[str], max_range: float) -> np.ndarray:
     return r
 
 
-def _laser(tok: list[str], max_range: float, fov: float, robot: str, rear: bool) -> _Line:
+def _laser(tok: list[str], max_range: float, fov: float, robot: str, rear: bool,
+           angle_min: float | None) -> _Line:
     kind = tok[0]
     if kind in ("FLASER", "RLASER"):
         n = int(tok[1])
@@ -212,7 +216,7 @@ def _laser(tok: list[str], max_range: float, fov: float, robot: str, rear: bool)
         rest = [float(t) for t in tok[2 + n:2 + n + 7]]
         if len(rest) < 7:
             raise IndexError("missing pose or timestamp fields")
-        start = -fov / 2 + (math.pi if rear else 0.0)
+        start = (-fov / 2 if angle_min is None else angle_min) + (math.pi if rear else 0.0)
         inc = fov / max(n - 1, 1)  # n beams from the first to the last edge of the field of view
         scan = LidarScan(robot, rest[6], start, inc, 0.0, max_range, r)
         return _Line(kind, 0, scan, (rest[3], rest[4], rest[5]), (rest[0], rest[1], rest[2]), rest[6])

@@ -18,7 +18,8 @@ Odometry (`odometry=`):
 - "laser_pose": the laser lines' own pose fields (in "-corrected" logs these are the corrected poses).
 - "none": no odometry.
 The laser lines' robot poses are always exposed as `reference` (a reference, never an input).
-Ranges at or beyond the maximum range are "no return" (+inf, REP-117).
+Ranges at or beyond the maximum range, and the log's recurring maximum value (the laser's "no return"
+code), are "no return" (+inf, REP-117).
 """
 
 from __future__ import annotations
@@ -137,6 +138,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
         valid = np.ones(len(scans), dtype=bool)
     else:
         poses, valid = [None] * len(scans), np.zeros(len(scans), dtype=bool)
+    _mark_no_return([s.scan for s in scans if s.scan is not None])
     records = [ScanRecord(s.scan, None if q is None else Pose2D(*q))  # type: ignore[arg-type]
                for s, q in zip(scans, poses, strict=True)]
     return CarmenLog(records, odom_lines, offset, skipped, reference, valid, odometry, types)
@@ -190,6 +192,21 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
     valid = np.zeros(n, dtype=bool)
     valid[1:] = np.diff(np.array(before)) > 0  # a fresh ODOM sample since the previous scan
     return out, valid
+
+
+def _mark_no_return(scans: list[LidarScan]) -> None:
+    """The largest value in the log, if it recurs (≥ 0.1 % of beams), is the laser's "no return" code
+    (SICK 81.91, 32.767 or 51.15 in Radish logs, or the maximum a simulator writes): make it +inf."""
+    if not scans:
+        return
+    top = max((float(s.ranges[np.isfinite(s.ranges)].max(initial=0.0)) for s in scans), default=0.0)
+    if top <= 0.0:
+        return
+    total = sum(s.ranges.size for s in scans)
+    hits = sum(int((s.ranges >= top - 0.01).sum()) for s in scans)
+    if hits >= max(2, 0.001 * total):
+        for s in scans:
+            s.ranges[s.ranges >= top - 0.01] = np.inf
 
 
 def _interp(t0: float, a: np.ndarray, t1: float, b: np.ndarray, t: float) -> tuple[float, float, float]:

@@ -24,9 +24,15 @@ class FrontEndConfig(StrictModel):
     wide_min_score: float = Field(0.25, gt=0, lt=1, description="… in the wide window")
     wide_points: int = Field(80, ge=10, description="scan points scored by the wide search")
     min_score: float = Field(0.35, gt=0, lt=1, description="a match below this mean hit likelihood is poor")
-    odometry_trust_xy: float = Field(0.05, ge=0, description="score penalty per m² away from the odometry "
+    odometry_trust_xy: float = Field(0.1, ge=0, description="score penalty per m² away from the odometry "
                                      "guess (0: odometry only seeds the window)")
-    odometry_trust_yaw: float = Field(0.05, ge=0, description="score penalty per rad² away from the guess")
+    odometry_trust_yaw: float = Field(0.1, ge=0, description="score penalty per rad² away from the guess")
+    odom_step_sigma_xy: float = Field(0.03, gt=0, description="odometry prior fused with ICP: σ floor per "
+                                      "step, m")
+    odom_step_sigma_per_m: float = Field(0.1, ge=0, description="… plus this share of the step's length")
+    odom_step_sigma_yaw: float = Field(0.02, gt=0, description="rad")
+    odom_step_sigma_per_rad: float = Field(0.1, ge=0, description="… plus this share of the step's turn")
+    odom_step_sigma_yaw_per_m: float = Field(0.02, ge=0, description="… plus rad per m travelled")
     csm_points: int = Field(160, ge=10, description="scan points (evenly subsampled) scored by the search")
     local_map_distance: float = Field(6.0, gt=0, description="local map: scans within this path length, m")
     local_map_scans: int = Field(30, ge=1, description="… and at most this many (evenly spaced)")

@@ -92,7 +92,7 @@ class LogSlam:
         else:  # no odometry: constant velocity (the previous step) seeds the wide window
             delta = se2_between(self.poses[-2], prev) if i >= 2 else (0.0, 0.0, 0.0)
         guess = se2_compose(prev, delta)
-        matched, cov = self._match(pts, guess, has_odom)
+        matched, cov = self._match(pts, guess, has_odom, delta)
         if matched is None:
             self.stats.odometry_only += 1
             pose, rel, cov = guess, delta, self._odom_cov
@@ -123,7 +123,7 @@ class LogSlam:
         pts = np.column_stack([r[ok] * np.cos(ang[ok]), r[ok] * np.sin(ang[ok])])
         return thin(pts, cfg.point_spacing), ang[~np.isfinite(r)]
 
-    def _match(self, pts: np.ndarray, guess: se2.PoseTuple, has_odom: bool
+    def _match(self, pts: np.ndarray, guess: se2.PoseTuple, has_odom: bool, delta: se2.PoseTuple
                ) -> tuple[se2.PoseTuple | None, np.ndarray]:
         fe = self.config.frontend
         if len(pts) < 10:
@@ -152,7 +152,21 @@ class LogSlam:
         else:
             self.stats.matched += 1
         info = fit.information + 1e-9 * np.eye(3)
+        if has_odom and not wide:  # fuse with the odometry prior: it holds where the scan is degenerate
+            odo_info = np.linalg.inv(self._step_cov(delta))
+            d = np.array(se2_between(guess, pose))
+            fused = np.linalg.solve(info + odo_info, info @ d)
+            pose = se2_compose(guess, (float(fused[0]), float(fused[1]), float(fused[2])))
+            info = info + odo_info
         return pose, np.linalg.inv(info) + self._edge_floor
+
+    def _step_cov(self, delta: se2.PoseTuple) -> np.ndarray:
+        """Odometry σ of one step: a floor plus a share of the motion (the odometry's trust)."""
+        fe = self.config.frontend
+        dist, turn = math.hypot(delta[0], delta[1]), abs(delta[2])
+        sxy = fe.odom_step_sigma_xy + fe.odom_step_sigma_per_m * dist
+        syaw = fe.odom_step_sigma_yaw + fe.odom_step_sigma_per_rad * turn + fe.odom_step_sigma_yaw_per_m * dist
+        return np.diag([sxy ** 2, sxy ** 2, syaw ** 2])
 
     def _local_map(self) -> tuple[MatchGrid, IcpTarget]:
         """The recent scans at their current poses, rebuilt when the robot moved or the poses changed."""

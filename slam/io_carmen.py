@@ -2,7 +2,8 @@
 
 Laser lines (front: FLASER, ROBOTLASER1, RAWLASER1; rear: RLASER, RAWLASER2):
   FLASER/RLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp
-      n beams over 180° (the classic SICK layout: beam k at −90° + k·180°/(n−1)); RLASER faces backwards.
+      n beams over 180° (the classic SICK layout: beam k at −90° + k·180°/(n−1); 180/360/720 beams, a
+      SICK layout without its last beam, keep 1°/0.5°/0.25° from −90°); RLASER faces backwards.
   ROBOTLASER1 type start_angle fov resolution max_range accuracy remission_mode n r1..rn m i1..im
       laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv fwd_safety side_safety turn_axis
       timestamp host logger_timestamp
@@ -194,19 +195,35 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
     return out, valid
 
 
+_SICK_RES = (math.radians(1.0), math.radians(0.5), math.radians(0.25))
+
+
+def _flaser_layout(n: int, fov: float) -> tuple[float, float]:
+    """(increment, first beam angle) of an n-beam FLASER/RLASER line spanning `fov`: n beams from −fov/2 to
+    +fov/2, fov/(n−1) apart. A SICK at 1°/0.5°/0.25° over 180° gives 181/361/721 beams; logs that dropped
+    the last beam (180/360/720) keep the scanner's resolution and start at −90°, so an increment within 1 %
+    of fov/n at a standard resolution wins over fov/(n−1)."""
+    full = fov / max(n - 1, 1)
+    for res in _SICK_RES:
+        if abs(fov - math.pi) < 1e-9 and abs(fov / n - res) < 0.01 * res and abs(full - res) > 0.001 * res:
+            return res, -fov / 2
+    return full, -fov / 2
+
+
 def _mark_no_return(scans: list[LidarScan]) -> None:
-    """The largest value in the log, if it recurs (≥ 0.1 % of beams), is the laser's "no return" code
-    (SICK 81.91, 32.767 or 51.15 in Radish logs, or the maximum a simulator writes): make it +inf."""
+    """The largest value in the log, if it recurs (≥ 0.1 % of beams and ≥ 10, ≤ half of them), is the
+    laser's "no return" code (SICK 81.91, 32.767 or 51.15 in Radish logs, or the maximum a simulator writes):
+    make it +inf."""
     if not scans:
         return
     top = max((float(s.ranges[np.isfinite(s.ranges)].max(initial=0.0)) for s in scans), default=0.0)
     if top <= 0.0:
         return
     total = sum(s.ranges.size for s in scans)
-    hits = sum(int((s.ranges >= top - 0.01).sum()) for s in scans)
-    if hits >= max(2, 0.001 * total):
+    hits = sum(int((s.ranges >= top - 1e-4).sum()) for s in scans)
+    if max(10, 0.001 * total) <= hits <= 0.5 * total:
         for s in scans:
-            s.ranges[s.ranges >= top - 0.01] = np.inf
+            s.ranges[s.ranges >= top - 1e-4] = np.inf
 
 
 def _interp(t0: float, a: np.ndarray, t1: float, b: np.ndarray, t: float) -> tuple[float, float, float]:
@@ -233,8 +250,8 @@ def _laser(tok: list[str], max_range: float, fov: float, robot: str, rear: bool,
         rest = [float(t) for t in tok[2 + n:2 + n + 7]]
         if len(rest) < 7:
             raise IndexError("missing pose or timestamp fields")
-        start = (-fov / 2 if angle_min is None else angle_min) + (math.pi if rear else 0.0)
-        inc = fov / max(n - 1, 1)  # n beams from the first to the last edge of the field of view
+        inc, first = _flaser_layout(n, fov)
+        start = (first if angle_min is None else angle_min) + (math.pi if rear else 0.0)
         scan = LidarScan(robot, rest[6], start, inc, 0.0, max_range, r)
         return _Line(kind, 0, scan, (rest[3], rest[4], rest[5]), (rest[0], rest[1], rest[2]), rest[6])
     start, _fov, res, rmax = (float(t) for t in tok[2:6])

@@ -19,8 +19,8 @@ def _flaser(n: int, pose: tuple[float, float, float], t: float, kind: str = "FLA
     return f"{kind} {n} {r} {x} {y} {th} {x} {y} {th} {t} host {t}"
 
 
-@pytest.mark.parametrize("n", [181, 361])
-def test_beam_layout_and_gz(tmp_path: Path, n: int) -> None:
+@pytest.mark.parametrize(("n", "step_deg"), [(181, 1.0), (361, 0.5), (180, 1.0), (360, 0.5), (100, 180 / 99)])
+def test_beam_layout_and_gz(tmp_path: Path, n: int, step_deg: float) -> None:
     text = "\n".join(["ODOM 0 0 0 0 0 0 0.0 h 0", _flaser(n, (0, 0, 0), 0.0), "ODOM 1 0 0 0 0 0 1.0 h 1",
                       _flaser(n, (1, 0, 0), 1.0)]) + "\n"
     with gzip.open(tmp_path / "a.log.gz", "wt") as f:
@@ -29,8 +29,8 @@ def test_beam_layout_and_gz(tmp_path: Path, n: int) -> None:
     scan = log.records[0].scan
     assert scan.ranges.size == n and scan.ranges[5] == pytest.approx(1.005, abs=1e-12)
     assert scan.angle_min == pytest.approx(-math.pi / 2)
-    assert scan.angle_min + (n - 1) * scan.angle_increment == pytest.approx(math.pi / 2)  # last beam at +90°
-    assert scan.angle_increment == pytest.approx(math.pi / (n - 1))
+    # 181/361: first to last beam over 180°; 180/360 (a SICK scan without its last beam): 1°/0.5° from −90°
+    assert scan.angle_increment == pytest.approx(math.radians(step_deg), abs=1e-12)
     assert log.reference is not None and log.reference[1].tolist() == [1.0, 0.0, 0.0]
 
 

@@ -86,6 +86,6 @@ class LogSlamConfig(StrictModel):
     point_spacing: float = Field(0.05, gt=0, description="scan points thinned to this spacing, m")
     frontend: FrontEndConfig = FrontEndConfig()
     loops: LoopConfig = LoopConfig()
-    mapping: MappingConfig = MappingConfig(max_range=20.0)
+    mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes
     map_every_distance: float = Field(0.1, ge=0, description="integrate a scan into the final map after "
                                       "this much motion (or rotation / 10 rad·m), m")

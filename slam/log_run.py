@@ -21,6 +21,7 @@ from PIL import Image, ImageDraw
 from planning.grid import OccupancyGrid
 from planning.map_io import save_map
 from sim.errors import ErrorCode, FleetError
+from slam import se2
 from slam.log_config import LogSlamConfig
 from slam.log_eval import evaluate, write_g2o, write_tum
 from slam.log_slam import LogSlam
@@ -101,6 +102,8 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         write_tum(out_dir / "reference.tum", stamps, log.reference)
         report["slam"] = evaluate(est, log.reference)
         report["odometry_only"] = evaluate(odo, log.reference)
+        aligned = se2.compose_many(np.tile(report["slam"]["alignment"], (n, 1)), est)
+        save_overlay(slam.map(log.reference), slam.map(aligned), out_dir / "overlay.png")
     (out_dir / "report.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
     return report
 
@@ -113,6 +116,32 @@ def run_log(path: str | Path, out: str | Path, config: LogSlamConfig | None = No
     slam = run_slam(log, cfg, progress)
     wall = time.perf_counter() - t0
     return write_outputs(slam, log, out, wall, str(path))
+
+
+def save_overlay(reference: OccupancyGrid, estimate: OccupancyGrid, path: Path, max_px: int = 1600) -> Path:
+    """Walls of the map built at the reference poses (blue) and at the aligned estimate (red); where both
+    agree the wall is black. A doubled wall shows as parallel red and blue lines."""
+    res = reference.resolution
+    lo = np.minimum(reference.bounds[:2], estimate.bounds[:2])
+    hi = np.maximum(reference.bounds[2:], estimate.bounds[2:])
+    w, h = (np.ceil((hi - lo) / res).astype(int) + 1).tolist()
+    layers = []
+    for g in (reference, estimate):
+        rows, cols = np.nonzero(g.data >= 50)
+        xy = g.cells_to_world(rows, cols)
+        c = np.floor((xy - lo) / res).astype(int)
+        m = np.zeros((h, w), dtype=bool)
+        m[c[:, 1], c[:, 0]] = True
+        layers.append(m)
+    img = np.full((h, w, 3), 255, dtype=np.uint8)
+    img[layers[0]] = (60, 90, 255)
+    img[layers[1]] = (230, 30, 30)
+    img[layers[0] & layers[1]] = (0, 0, 0)
+    pil = Image.fromarray(np.flipud(img), mode="RGB")
+    scale = min(2.0, max_px / max(pil.size))
+    pil = pil.resize((max(1, round(pil.width * scale)), max(1, round(pil.height * scale))), Image.Resampling.NEAREST)
+    pil.save(path, format="PNG", optimize=True)
+    return path
 
 
 def save_png(grid: OccupancyGrid, est: np.ndarray, odo: np.ndarray | None, path: Path, max_px: int = 1600) -> Path:

@@ -69,7 +69,7 @@ def test_cli_run_and_eval(run: tuple[LogSlam, np.ndarray, np.ndarray, Path], tmp
     res = CliRunner().invoke(app, ["slam", "run", str(path), "--out", str(out), "--quiet"])
     assert res.exit_code == 0, res.output
     for name in ("map.pgm", "map.yaml", "map.png", "trajectory.tum", "trajectory_odom.tum", "graph.g2o",
-                 "report.json", "reference.tum", "config.yaml"):
+                 "report.json", "reference.tum", "config.yaml", "overlay.png"):
         assert (out / name).is_file(), name
     report = json.loads((out / "report.json").read_text())
     assert report["scans"] == N and report["slam"]["ate_rmse"] < 0.05 and report["loop_closures"]["accepted"] >= 1

@@ -34,7 +34,7 @@ class FrontEndConfig(StrictModel):
     odom_step_sigma_per_rad: float = Field(0.1, ge=0, description="… plus this share of the step's turn")
     odom_step_sigma_yaw_per_m: float = Field(0.02, ge=0, description="… plus rad per m travelled")
     csm_points: int = Field(160, ge=10, description="scan points (evenly subsampled) scored by the search")
-    local_map_distance: float = Field(6.0, gt=0, description="local map: scans within this path length, m")
+    local_map_distance: float = Field(12.0, gt=0, description="local map: scans within this path length, m")
     local_map_scans: int = Field(30, ge=1, description="… and at most this many (evenly spaced)")
     icp_max_correspondence: float = Field(0.15, gt=0, description="m")
     icp_range_sigma: float = Field(0.05, gt=0, description="per-point σ behind the edge information, m")

@@ -87,5 +87,7 @@ class LogSlamConfig(StrictModel):
     frontend: FrontEndConfig = FrontEndConfig()
     loops: LoopConfig = LoopConfig()
     mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes
+    final_batch: bool = Field(False, description="also a batch Levenberg-Marquardt pass over the whole graph at "
+                              "the end (measured: no change on freiburg-079, 0.089 m either way)")
     map_every_distance: float = Field(0.1, ge=0, description="integrate a scan into the final map after "
                                       "this much motion (or rotation / 10 rad·m), m")

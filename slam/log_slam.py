@@ -204,7 +204,10 @@ class LogSlam:
     # ---- results -------------------------------------------------------------------------------------
 
     def finish(self) -> None:
+        """Converge iSAM2, then (config.final_batch) one Levenberg-Marquardt pass over the whole graph."""
         self.graph.converge()
+        if self.config.final_batch and self.loops.accepted:
+            self.graph.batch_optimize()
         self.refresh_poses()
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:

@@ -270,6 +270,26 @@ class SlamOps(ServiceCore):
             d["yaw_error_rad"] = round(abs(math.remainder(e.pose.yaw - s.truth.yaw, 2 * math.pi)), 4)
         return d
 
+    # ---- SLAM on a recorded log ----------------------------------------------------------------------
+
+    def run_slam_on_log(self, path: str, out: str | None = None, odometry: str = "odom_increments",
+                        config: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Run `slam.log_run` on a CARMEN (.log/.log.gz) or MCAP log inside the workspace; outputs go to `out`
+        (default: `<log name>_slam/` next to the log). Independent of the sim: call it off the sim thread."""
+        from slam.log_config import LogSlamConfig
+        from slam.log_run import run_log
+
+        src = self.workspace.resolve(path, write=False)
+        if not src.is_file():
+            raise FleetError(ErrorCode.NOT_FOUND, f"no log file '{path}'", "give a path inside the workspace")
+        stem = src.name.split(".")[0]
+        dst = self.workspace.resolve(out if out else str(src.parent / f"{stem}_slam"), write=True)
+        cfg = _validated(LogSlamConfig, {**(config or {}), "odometry": odometry}, "log slam")
+        report = run_log(src, dst, cfg)
+        report["out"] = str(dst)
+        report["loop_closures"]["list"] = report["loop_closures"]["list"][-20:]  # the latest; all in report.json
+        return report
+
     def _yaml_path(self, path: str, *, write: bool) -> Path:
         p = self.workspace.resolve(path, write=write)
         if p.suffix not in (".yaml", ".yml"):

@@ -62,6 +62,10 @@ from fleetnav.cmd_zenoh import zenoh as _zenoh  # noqa: E402
 
 app.command("zenoh")(_zenoh)
 
+from fleetnav.cmd_slam import slam_app  # noqa: E402  (slam run|eval: SLAM on recorded logs)
+
+app.add_typer(slam_app, name="slam")
+
 
 def main() -> None:
     app()

@@ -1,71 +1,236 @@
-"""CARMEN log files as a scan input: FLASER, ROBOTLASER1 and ODOM lines (other lines are skipped).
+"""CARMEN log files (.log or .log.gz) as a scan input.
 
-FLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp
-    n beams over 180° starting at −90° (the classic SICK setting; override with `flaser_fov`).
-ROBOTLASER1 type start_angle fov resolution max_range accuracy remission_mode n r1..rn m i1..im
-    laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv fwd_safety side_safety turn_axis
-    timestamp host logger_timestamp
+Laser lines (front: FLASER, ROBOTLASER1, RAWLASER1; rear: RLASER, RAWLASER2):
+  FLASER/RLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp
+      n beams over 180° (the classic SICK layout: beam k at −90° + k·180°/(n−1); 180/360/720 beams, a
+      SICK layout without its last beam, keep 1°/0.5°/0.25° from −90°); RLASER faces backwards.
+  ROBOTLASER1 type start_angle fov resolution max_range accuracy remission_mode n r1..rn m i1..im
+      laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv fwd_safety side_safety turn_axis
+      timestamp host logger_timestamp
+  RAWLASERk type start_angle fov resolution max_range accuracy remission_mode n r1..rn m i1..im
+      timestamp host logger_timestamp   (no pose)
 ODOM x y theta tv rv accel timestamp host logger_timestamp
 
-Each scan's record carries the robot's odometry pose from its own line; ranges at or beyond the
-maximum range are "no return" (+inf, REP-117).
+Odometry (`odometry=`):
+- "odom_increments" (default, the honest one): the chain of increments between consecutive ODOM lines,
+  interpolated to each scan's stamp. Radish "-corrected" logs restart the ODOM pose at each laser line's
+  corrected pose (the first ODOM after a laser line equals its pose): that restart is not motion, so the
+  chain skips it. A step with no ODOM sample between two scans has no odometry (`odom_valid` False).
+- "laser_pose": the laser lines' own pose fields (in "-corrected" logs these are the corrected poses).
+- "none": no odometry.
+The laser lines' robot poses are always exposed as `reference` (a reference, never an input).
+Ranges at or beyond the maximum range, and the log's recurring maximum value (the laser's "no return"
+code), are "no return" (+inf, REP-117).
 """
 
 from __future__ import annotations
 
+import gzip
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
 from sim.errors import ErrorCode, FleetError
-from sim.transforms import se2_between
+from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
+from slam import se2
 from slam.types import ScanRecord
+
+OdometrySource = Literal["odom_increments", "laser_pose", "none"]
+LaserSide = Literal["front", "rear"]
+FRONT = ("FLASER", "ROBOTLASER1", "RAWLASER1")
+REAR = ("RLASER", "RAWLASER2")
+_RESTART_TOL = 1e-4  # m / rad: an ODOM equal to the laser line's pose is a "-corrected" restart
 
 
 @dataclass(frozen=True, slots=True)
 class CarmenLog:
-    records: list[ScanRecord]  # scans with the odometry pose at their time
-    odometry: list[tuple[float, Pose2D]] = field(default_factory=list)  # ODOM lines: (stamp, pose)
+    records: list[ScanRecord]  # scans with the chosen odometry at their stamp (None: no odometry)
+    odometry: list[tuple[float, Pose2D]] = field(default_factory=list)  # ODOM lines as written: (stamp, pose)
     lidar_offset: tuple[float, float, float] | None = None  # laser in the robot frame (ROBOTLASER1)
     skipped: dict[str, int] = field(default_factory=dict)  # other message types, by name
+    reference: np.ndarray | None = None  # (n, 3) robot pose fields of the laser lines (None: RAWLASER)
+    odom_valid: np.ndarray | None = None  # (n,) bool: odometry observed motion since the previous scan
+    source: str = "odom_increments"
+    laser_types: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def stamps(self) -> np.ndarray:
+        return np.array([r.scan.stamp for r in self.records])
+
+
+@dataclass
+class _Line:
+    kind: str
+    no: int
+    scan: LidarScan | None = None
+    pose: tuple[float, float, float] | None = None  # laser line: robot pose field; ODOM: its pose
+    laser: tuple[float, float, float] | None = None
+    stamp: float = 0.0
+
+
+def _open_lines(p: Path) -> list[str]:
+    try:
+        if p.suffix == ".gz":
+            with gzip.open(p, "rt", encoding="utf-8", errors="replace") as f:
+                return f.read().splitlines()
+        return p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except (EOFError, gzip.BadGzipFile) as exc:  # BadGzipFile is an OSError: catch it first
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}: not a readable gzip file ({exc})",
+                         "give a .log or a complete .log.gz") from exc
+    except OSError as exc:
+        raise FleetError(ErrorCode.NOT_FOUND, f"cannot read {p}: {exc.strerror}", "check the path") from exc
 
 
 def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float = math.pi,
-                robot: str = "carmen") -> CarmenLog:
+                robot: str = "carmen", odometry: OdometrySource = "odom_increments",
+                laser: LaserSide = "front", flaser_angle_min: float | None = None) -> CarmenLog:
+    """Scans of one laser (`laser`: front or rear) with odometry from `odometry` (see the module doc).
+    FLASER/RLASER beams span `flaser_fov` from the first to the last beam, starting at `flaser_angle_min`
+    (default −fov/2, centred)."""
+    if odometry not in ("odom_increments", "laser_pose", "none"):
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown odometry source {odometry!r}",
+                         "use one of: odom_increments, laser_pose, none")
     p = Path(path)
-    try:
-        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as exc:
-        raise FleetError(ErrorCode.NOT_FOUND, f"cannot read {p}: {exc.strerror}", "check the path") from exc
-    records: list[ScanRecord] = []
-    odom: list[tuple[float, Pose2D]] = []
+    kinds = FRONT if laser == "front" else REAR
+    parsed: list[_Line] = []
     skipped: dict[str, int] = {}
+    types: dict[str, int] = {}
     offset: tuple[float, float, float] | None = None
-    for no, line in enumerate(lines, 1):
+    for no, line in enumerate(_open_lines(p), 1):
         tok = line.split()
         if not tok or tok[0].startswith("#"):
             continue
         try:
-            if tok[0] == "FLASER":
-                records.append(_flaser(tok, max_range, flaser_fov, robot))
-            elif tok[0] == "ROBOTLASER1":
-                rec, off = _robotlaser(tok, max_range, robot)
-                records.append(rec)
-                offset = offset or off
-            elif tok[0] == "ODOM":
+            if tok[0] == "ODOM":
                 v = [float(t) for t in tok[1:8]]
-                odom.append((v[6], Pose2D(v[0], v[1], v[2])))
+                if len(v) < 7:
+                    raise IndexError("ODOM needs x y theta tv rv accel timestamp")
+                parsed.append(_Line("ODOM", no, pose=(v[0], v[1], v[2]), stamp=v[6]))
+            elif tok[0] in kinds:
+                item = _laser(tok, max_range, flaser_fov, robot, tok[0] in REAR, flaser_angle_min)
+                item.no = no
+                parsed.append(item)
+                types[tok[0]] = types.get(tok[0], 0) + 1
+                if item.laser is not None and item.pose is not None and tok[0] == "ROBOTLASER1":
+                    offset = offset or se2_between(item.pose, item.laser)
             else:
                 skipped[tok[0]] = skipped.get(tok[0], 0) + 1
         except (ValueError, IndexError) as exc:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}:{no}: malformed {tok[0]} line ({exc})",
                              "see the CARMEN log format in slam/io_carmen.py") from exc
-    if not records:
-        raise FleetError(ErrorCode.NOT_FOUND, f"{p}: no FLASER or ROBOTLASER1 lines", "is this a CARMEN log?")
-    return CarmenLog(records, odom, offset, skipped)
+    scans = [x for x in parsed if x.kind != "ODOM"]
+    if not scans:
+        raise FleetError(ErrorCode.NOT_FOUND, f"{p}: no {' / '.join(kinds)} lines",
+                         "is this a CARMEN log? (laser='rear' reads RLASER / RAWLASER2)")
+    odom_lines = [(x.stamp, Pose2D(*x.pose)) for x in parsed if x.kind == "ODOM" and x.pose is not None]
+    has_ref = all(s.pose is not None for s in scans)
+    reference = np.array([s.pose for s in scans], dtype=np.float64) if has_ref else None
+    if odometry == "odom_increments":
+        poses, valid = _odom_chain(parsed)
+    elif odometry == "laser_pose":
+        if reference is None:
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}: RAWLASER lines carry no pose",
+                             "use odometry: odom_increments or none")
+        poses = [(float(r[0]), float(r[1]), float(r[2])) for r in reference]
+        valid = np.ones(len(scans), dtype=bool)
+    else:
+        poses, valid = [None] * len(scans), np.zeros(len(scans), dtype=bool)
+    _mark_no_return([s.scan for s in scans if s.scan is not None])
+    records = [ScanRecord(s.scan, None if q is None else Pose2D(*q))  # type: ignore[arg-type]
+               for s, q in zip(scans, poses, strict=True)]
+    return CarmenLog(records, odom_lines, offset, skipped, reference, valid, odometry, types)
+
+
+def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | None], np.ndarray]:
+    """Raw odometry at each scan: chained ODOM increments (restarts skipped), interpolated in time."""
+    times: list[float] = []
+    chain: list[tuple[float, float, float]] = []
+    before: list[int] = []  # per scan: chain samples written before its line
+    acc: tuple[float, float, float] | None = None
+    prev_raw: tuple[float, float, float] | None = None
+    last_laser: tuple[float, float, float] | None = None
+    after_laser = False
+    for item in parsed:
+        if item.kind != "ODOM":
+            before.append(len(chain))
+            last_laser, after_laser = item.pose, True
+            continue
+        raw = item.pose
+        assert raw is not None
+        restart = (after_laser and last_laser is not None and prev_raw is not None
+                   and max(abs(raw[0] - last_laser[0]), abs(raw[1] - last_laser[1]),
+                           abs(math.remainder(raw[2] - last_laser[2], math.tau))) < _RESTART_TOL)
+        after_laser = False
+        if acc is None:
+            acc = raw
+        elif not restart and prev_raw is not None:
+            acc = se2_compose(acc, se2_between(prev_raw, raw))
+        prev_raw = raw
+        if restart:
+            continue  # a "-corrected" restart: the base moves, the robot did not
+        times.append(item.stamp)
+        chain.append(acc)
+    n = len(before)
+    if not chain:
+        return [None] * n, np.zeros(n, dtype=bool)
+    t = np.array(times)
+    c = np.array(chain)
+    monotone = bool(np.all(np.diff(t) >= 0))
+    out: list[tuple[float, float, float] | None] = []
+    for k, item in enumerate(x for x in parsed if x.kind != "ODOM"):
+        ts = item.scan.stamp if item.scan is not None else 0.0
+        if monotone and t[0] <= ts <= t[-1]:
+            j = int(np.searchsorted(t, ts, side="right"))
+            j = min(max(j, 1), len(t) - 1)
+            out.append(_interp(t[j - 1], c[j - 1], t[j], c[j], ts))
+        else:  # bad or out-of-range stamps: the latest sample before the line, in file order
+            q = c[max(before[k] - 1, 0)]
+            out.append((float(q[0]), float(q[1]), float(q[2])))
+    valid = np.zeros(n, dtype=bool)
+    valid[1:] = np.diff(np.array(before)) > 0  # a fresh ODOM sample since the previous scan
+    return out, valid
+
+
+_SICK_RES = (math.radians(1.0), math.radians(0.5), math.radians(0.25))
+
+
+def _flaser_layout(n: int, fov: float) -> tuple[float, float]:
+    """(increment, first beam angle) of an n-beam FLASER/RLASER line spanning `fov`: n beams from −fov/2 to
+    +fov/2, fov/(n−1) apart. A SICK at 1°/0.5°/0.25° over 180° gives 181/361/721 beams; logs that dropped
+    the last beam (180/360/720) keep the scanner's resolution and start at −90°, so an increment within 1 %
+    of fov/n at a standard resolution wins over fov/(n−1)."""
+    full = fov / max(n - 1, 1)
+    for res in _SICK_RES:
+        if abs(fov - math.pi) < 1e-9 and abs(fov / n - res) < 0.01 * res and abs(full - res) > 0.001 * res:
+            return res, -fov / 2
+    return full, -fov / 2
+
+
+def _mark_no_return(scans: list[LidarScan]) -> None:
+    """The largest value in the log, if it recurs (≥ 0.1 % of beams and ≥ 10, ≤ half of them), is the
+    laser's "no return" code (SICK 81.91, 32.767 or 51.15 in Radish logs, or the maximum a simulator writes):
+    make it +inf."""
+    if not scans:
+        return
+    top = max((float(s.ranges[np.isfinite(s.ranges)].max(initial=0.0)) for s in scans), default=0.0)
+    if top <= 0.0:
+        return
+    total = sum(s.ranges.size for s in scans)
+    hits = sum(int((s.ranges >= top - 1e-4).sum()) for s in scans)
+    if max(10, 0.001 * total) <= hits <= 0.5 * total:
+        for s in scans:
+            s.ranges[s.ranges >= top - 1e-4] = np.inf
+
+
+def _interp(t0: float, a: np.ndarray, t1: float, b: np.ndarray, t: float) -> tuple[float, float, float]:
+    f = 0.0 if t1 <= t0 else (t - t0) / (t1 - t0)
+    d = se2.between_many(a[None], b[None])[0] * f
+    q = se2.compose_many(a[None], d[None])[0]
+    return (float(q[0]), float(q[1]), float(q[2]))
 
 
 def _ranges(values: list[str], max_range: float) -> np.ndarray:
@@ -74,32 +239,38 @@ def _ranges(values: list[str], max_range: float) -> np.ndarray:
     return r
 
 
-def _flaser(tok: list[str], max_range: float, fov: float, robot: str) -> ScanRecord:
-    n = int(tok[1])
-    r = _ranges(tok[2:2 + n], max_range)
-    if r.size != n:
-        raise IndexError(f"expected {n} ranges, got {r.size}")
-    rest = [float(t) for t in tok[2 + n:2 + n + 7]]
-    if len(rest) < 7:
-        raise IndexError("missing pose or timestamp fields")
-    odom = Pose2D(rest[3], rest[4], rest[5])
-    scan = LidarScan(robot, rest[6], -fov / 2, fov / n, 0.0, max_range, r)
-    return ScanRecord(scan, odom)
-
-
-def _robotlaser(tok: list[str], max_range: float, robot: str) -> tuple[ScanRecord, tuple[float, float, float]]:
+def _laser(tok: list[str], max_range: float, fov: float, robot: str, rear: bool,
+           angle_min: float | None) -> _Line:
+    kind = tok[0]
+    if kind in ("FLASER", "RLASER"):
+        n = int(tok[1])
+        r = _ranges(tok[2:2 + n], max_range)
+        if r.size != n:
+            raise IndexError(f"expected {n} ranges, got {r.size}")
+        rest = [float(t) for t in tok[2 + n:2 + n + 7]]
+        if len(rest) < 7:
+            raise IndexError("missing pose or timestamp fields")
+        inc, first = _flaser_layout(n, fov)
+        start = (first if angle_min is None else angle_min) + (math.pi if rear else 0.0)
+        scan = LidarScan(robot, rest[6], start, inc, 0.0, max_range, r)
+        return _Line(kind, 0, scan, (rest[3], rest[4], rest[5]), (rest[0], rest[1], rest[2]), rest[6])
     start, _fov, res, rmax = (float(t) for t in tok[2:6])
     n = int(tok[8])
-    r = _ranges(tok[9:9 + n], min(max_range, rmax))
+    rng = min(max_range, rmax) if rmax > 0 else max_range
+    r = _ranges(tok[9:9 + n], rng)
     i = 9 + n
     m = int(tok[i])
     i += 1 + m
-    v = [float(t) for t in tok[i:i + 12]]
-    if len(v) < 12 or r.size != n:
-        raise IndexError("missing fields after the remission values")
-    laser, base, stamp = (v[0], v[1], v[2]), (v[3], v[4], v[5]), v[11]
-    scan = LidarScan(robot, stamp, start, res, 0.0, min(max_range, rmax), r)
-    return ScanRecord(scan, Pose2D(*base)), se2_between(base, laser)
+    if kind == "ROBOTLASER1":
+        v = [float(t) for t in tok[i:i + 12]]
+        if len(v) < 12 or r.size != n:
+            raise IndexError("missing fields after the remission values")
+        scan = LidarScan(robot, v[11], start, res, 0.0, rng, r)
+        return _Line(kind, 0, scan, (v[3], v[4], v[5]), (v[0], v[1], v[2]), v[11])
+    if r.size != n or len(tok) <= i:
+        raise IndexError("missing timestamp after the remission values")
+    stamp = float(tok[i])
+    return _Line(kind, 0, LidarScan(robot, stamp, start, res, 0.0, rng, r), None, None, stamp)
 
 
 def format_flaser(scan: LidarScan, odom: Pose2D, laser: Pose2D | None = None, host: str = "fleetnav") -> str:

@@ -4,7 +4,7 @@ image, save/load maps in the workspace, localise in a known map and its quality.
 from __future__ import annotations
 
 import io
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from mcp.server.mcpserver import Context
 from mcp_types import CallToolResult
@@ -35,6 +35,11 @@ class MapList(Answer):
 
 class Localisation(Answer):
     localization: dict[str, Any]
+
+
+class LogSlamResult(Answer):
+    result: dict[str, Any] = Field(description="report.json: scans, loop closures (accepted/rejected, reasons), "
+                                   "ms/scan, real-time factor, ATE/RPE vs the log's reference poses if any, out")
 
 
 class GridImage(Answer):
@@ -105,6 +110,34 @@ def register(tool: ToolRegistrar) -> None:
                          width=grid.width, height=grid.height, resolution=grid.resolution,
                          origin=[round(grid.origin[0], 4), round(grid.origin[1], 4)], metres_per_pixel=round(mpp, 5))
         return image_result(png, meta)
+
+    @tool(read_only=False, title="Run SLAM on a recorded log")
+    async def run_slam_on_log(
+        ctx: Context,
+        path: str = Field(description="CARMEN .log / .log.gz or .mcap recording (LaserScan) inside the workspace"),
+        out: str | None = Field(None, description="output folder inside the workspace (default: <log>_slam/ next "
+                                "to the log): map.pgm/yaml/png, trajectory.tum, trajectory_odom.tum, graph.g2o, "
+                                "report.json"),
+        odometry: Literal["odom_increments", "laser_pose", "none"] = Field(
+            "odom_increments", description="CARMEN odometry: raw ODOM increments (honest default), the laser "
+            "lines' poses (corrected reference poses in Radish logs: not an honest input), or none"),
+        config: dict[str, Any] | None = Field(None, description="slam.log_config.LogSlamConfig sections: "
+                                              "frontend, loops, mapping, max_range, point_spacing, laser"),
+        max_px: int = Field(800, ge=64, le=4096, description="longest side of the returned map image, px"),
+    ) -> Annotated[CallToolResult, LogSlamResult]:
+        """Map a recorded log (correlative + ICP scan-to-map front end, branch-and-bound loop closure, GTSAM
+        with a robust kernel); returns the report (ATE/RPE against the log's reference poses when it has them)
+        and the map image with the trajectory (red) and odometry (blue)."""
+        import anyio
+        from PIL import Image
+
+        svc = app_of(ctx).service
+        report = await anyio.to_thread.run_sync(lambda: svc.run_slam_on_log(path, out, odometry, config))
+        img = Image.open(f"{report['out']}/map.png")
+        img.thumbnail((max_px, max_px))
+        buf = io.BytesIO()
+        img.save(buf, format="PNG", optimize=True)
+        return image_result(buf.getvalue(), LogSlamResult(sim_time=svc.snapshot.time, result=report))
 
     @tool(read_only=False, title="Save the SLAM map")
     async def save_slam_map(ctx: Context, robot: str, path: str = Field(description="a .yaml path inside the "

@@ -16,6 +16,7 @@ from slam.pipeline import SlamPipeline
 from tests.slam import synth
 
 SEGS = synth.room()
+FOV = math.pi * 179 / 180  # 180 beams from −90° to +89°: first to last beam span 179°
 
 
 def _flaser_scan(pose: Pose2D, rng: np.random.Generator, stamp: float) -> LidarScan:
@@ -39,7 +40,8 @@ def _write_log(path: Path, n: int) -> tuple[list[Pose2D], list[Pose2D]]:
 
 def test_carmen_log_parses(tmp_path: Path) -> None:
     truth, odom = _write_log(tmp_path / "room.log", 20)
-    log = read_carmen(tmp_path / "room.log", max_range=10.0)
+    log = read_carmen(tmp_path / "room.log", max_range=10.0, flaser_fov=FOV, flaser_angle_min=-math.pi / 2,
+                      odometry="laser_pose")
     assert len(log.records) == 20 and len(log.odometry) == 20 and log.skipped == {"PARAM": 1}
     rec = log.records[3]
     assert rec.scan.ranges.size == 180 and rec.scan.angle_min == pytest.approx(-math.pi / 2)
@@ -54,7 +56,8 @@ def test_carmen_log_parses(tmp_path: Path) -> None:
 
 def test_carmen_log_maps(tmp_path: Path) -> None:
     truth, odom = _write_log(tmp_path / "room.log", 420)
-    log = read_carmen(tmp_path / "room.log", max_range=10.0)
+    log = read_carmen(tmp_path / "room.log", max_range=10.0, flaser_fov=FOV, flaser_angle_min=-math.pi / 2,
+                      odometry="laser_pose")
     slam = SlamPipeline(initial_pose=truth[0])
     for rec in log.records:
         slam.process_scan(rec.scan, rec.odom)
@@ -72,7 +75,7 @@ def test_robotlaser1_line_and_errors(tmp_path: Path) -> None:
     line = (f"ROBOTLASER1 0 -1.5708 3.1416 1.0472 8.0 0.01 0 4 {ranges} 0 "
             "1.1 2.0 0.5 1.0 2.0 0.5 0.3 0.0 0.2 0.1 0.0 12.5 host 12.5")
     (tmp_path / "a.log").write_text(line + "\n")
-    log = read_carmen(tmp_path / "a.log")
+    log = read_carmen(tmp_path / "a.log", odometry="laser_pose")
     scan = log.records[0].scan
     assert scan.ranges.tolist() == [2.5] * 4 and scan.angle_increment == pytest.approx(1.0472)
     assert scan.stamp == 12.5 and log.records[0].odom == Pose2D(1.0, 2.0, 0.5)

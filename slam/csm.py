@@ -1,0 +1,183 @@
+"""Correlative scan matching (Olson 2009; Hess et al. 2016 real-time CSM + branch-and-bound).
+
+A `MatchGrid` holds a smoothed hit likelihood of a point set (exp(−d²/2σ²) of the distance to the nearest
+point) and, per level h, the maximum over every 2^h × 2^h block of
+cells starting at each cell. A search scores every rotation of the scan in a window; the translations are
+found by branch and bound: a block's precomputed maximum is an upper bound on the score of every
+translation inside it, so whole blocks are pruned without evaluating them. The result is the exact best
+pose on the window's lattice, which ICP then refines below a cell.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam import se2
+
+
+class MatchGrid:
+    def __init__(self, points: np.ndarray, resolution: float = 0.05, sigma: float = 0.07,
+                 margin: float = 1.0) -> None:
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        self.resolution = res = resolution
+        lo = pts.min(axis=0) - margin
+        hi = pts.max(axis=0) + margin
+        self.origin = lo
+        w, h = (np.ceil((hi - lo) / res).astype(int) + 1).tolist()
+        # max over the points of exp(−d²/2σ²), cut at 4σ: stamp a kernel on every hit cell, weakest offsets
+        # first, so each cell ends with its largest value (cheaper than a distance transform of the grid)
+        c = np.unique(np.floor((pts - lo) / res).astype(np.int64), axis=0)
+        r = math.ceil(4.0 * sigma / res)
+        dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+        wk = np.exp(-0.5 * (dx ** 2 + dy ** 2) * (res / sigma) ** 2)
+        inside = (dx ** 2 + dy ** 2) * res ** 2 <= (4.0 * sigma) ** 2
+        order = np.argsort(wk[inside])
+        field = np.zeros((h + 2 * r, w + 2 * r), dtype=np.float32)
+        for ox, oy, val in zip(dx[inside][order].tolist(), dy[inside][order].tolist(),
+                               wk[inside][order].tolist(), strict=True):
+            field[c[:, 1] + r + oy, c[:, 0] + r + ox] = val
+        field = np.ascontiguousarray(field[r:r + h, r:r + w])
+        self._levels = [_zero_border(field)]
+
+    @property
+    def field(self) -> np.ndarray:
+        return self._levels[0]
+
+    def level(self, h: int) -> np.ndarray:
+        """Max over the 2^h × 2^h block of cells starting at each cell (zero outside the grid)."""
+        while len(self._levels) <= h:
+            prev = self._levels[-1]
+            s = 1 << (len(self._levels) - 1)
+            nxt = prev.copy()
+            nxt[:, :-s] = np.maximum(nxt[:, :-s], prev[:, s:])
+            nxt2 = nxt.copy()
+            nxt2[:-s, :] = np.maximum(nxt2[:-s, :], nxt[s:, :])
+            self._levels.append(_zero_border(nxt2))
+        return self._levels[h]
+
+    def cells(self, xy: np.ndarray) -> np.ndarray:
+        """(…, 2) world points → integer (col, row) cells (may be off the grid)."""
+        return np.floor((xy - self.origin) / self.resolution).astype(np.int64)
+
+    def score(self, pose: se2.PoseTuple, points: np.ndarray) -> float:
+        """Mean field value of the points placed at `pose` (0 … 1)."""
+        c = self.cells(se2.transform_points(pose, points))
+        return float(_lookup(self._levels[0], c[:, 0], c[:, 1]).mean()) if len(c) else 0.0
+
+
+def _zero_border(a: np.ndarray) -> np.ndarray:
+    a[0, :] = a[-1, :] = 0.0
+    a[:, 0] = a[:, -1] = 0.0
+    return a
+
+
+def _lookup(grid: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    h, w = grid.shape
+    return grid[np.clip(rows, 0, h - 1), np.clip(cols, 0, w - 1)]  # borders are 0: off-grid scores 0
+
+
+@dataclass(frozen=True, slots=True)
+class CsmResult:
+    pose: se2.PoseTuple
+    score: float  # mean field value at the best lattice pose, 0 … 1
+    nodes: int  # branch-and-bound nodes expanded (cost diagnostic)
+
+
+def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_xy: float, window_yaw: float,
+           min_score: float = 0.0, max_range_for_step: float = 10.0, top_level: int | None = None,
+           prior_weight_xy: float = 0.0, prior_weight_yaw: float = 0.0) -> CsmResult | None:
+    """Best pose of `points` (sensor frame) within ±window_xy, ±window_yaw of `guess`, or None if no pose
+    scores above `min_score`. The score may be penalised by the distance from the guess
+    (score − w_xy·‖Δt‖² − w_yaw·Δθ²); the bound stays valid since a block's penalty uses its nearest point."""
+    res = grid.resolution
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        return None
+    rmax = min(max_range_for_step, float(np.hypot(pts[:, 0], pts[:, 1]).max()))
+    step = math.acos(max(-1.0, 1.0 - res * res / (2.0 * max(rmax, res) ** 2)))
+    na = math.ceil(window_yaw / step)
+    angles = guess[2] + step * np.arange(-na, na + 1)
+    nw = math.ceil(window_xy / res)
+    depth = top_level if top_level is not None else max(0, math.ceil(math.log2(max(2 * nw + 1, 1))))
+    # every rotation's points in cells, relative to the window's lowest corner
+    c, s = np.cos(angles), np.sin(angles)
+    rx = c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1] + guess[0]
+    ry = s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1] + guess[1]
+    base = grid.cells(np.stack([rx, ry], axis=-1)) - nw  # (A, n, 2)
+    n = len(pts)
+    size = 2 * nw + 1
+    block = 1 << depth
+    starts = np.arange(0, size, block)
+    gx, gy = np.meshgrid(starts, starts, indexing="ij")
+    ox, oy = gx.ravel(), gy.ravel()
+    top = grid.level(depth)
+    # top level: every rotation × every block, vectorised
+    sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None], base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n
+    sc = sc - _penalty(ox, oy, block, nw, res, prior_weight_xy)[None, :]
+    sc = sc - (prior_weight_yaw * (angles - guess[2]) ** 2)[:, None]
+    yaw_pen = prior_weight_yaw * (angles - guess[2]) ** 2
+    a_idx, k_idx = np.nonzero(sc > min_score)
+    if len(a_idx) == 0:
+        return None
+    cand = (a_idx, ox[k_idx], oy[k_idx], sc[a_idx, k_idx])
+
+    def children(c: tuple[np.ndarray, ...], h: int) -> tuple[np.ndarray, ...]:
+        """The four sub-blocks (level h−1) of every block in `c` (level h), scored on level h−1."""
+        half = 1 << (h - 1)
+        a = np.repeat(c[0], 4)
+        x = (c[1][:, None] + np.array([0, half, 0, half])[None, :]).ravel()
+        y = (c[2][:, None] + np.array([0, 0, half, half])[None, :]).ravel()
+        keep = (x < size) & (y < size)
+        a, x, y = a[keep], x[keep], y[keep]
+        lv = grid.level(h - 1)
+        v = np.empty(len(a))
+        for k in range(0, len(a), 8192):  # chunks bound the (blocks × points) working set
+            b = base[a[k:k + 8192]]
+            v[k:k + 8192] = _lookup(lv, b[:, :, 0] + x[k:k + 8192, None], b[:, :, 1] + y[k:k + 8192, None]).sum(-1)
+        return a, x, y, v / n - _penalty(x, y, half, nw, res, prior_weight_xy) - yaw_pen[a]
+
+    # Greedy descent from the best top block gives a reachable leaf: its score is a lower bound that prunes.
+    best_score, best = min_score, None
+    g = tuple(v[[int(np.argmax(cand[3]))]] for v in cand)
+    for h in range(depth, 0, -1):
+        g = children(g, h)
+        i = int(np.argmax(g[3])) if len(g[0]) else -1
+        if i < 0:
+            break
+        g = tuple(v[[i]] for v in g)
+    if depth == 0:
+        g = cand
+    if len(g[0]) and float(g[3].max()) > best_score:
+        i = int(np.argmax(g[3]))
+        best_score, best = float(g[3][i]), (int(g[0][i]), int(g[1][i]), int(g[2][i]))
+    # Then branch and bound, one level at a time (all surviving blocks of a level at once).
+    nodes = 0
+    live = tuple(v[cand[3] > best_score] for v in cand)
+    for h in range(depth, 0, -1):
+        if len(live[0]) == 0:
+            break
+        nodes += len(live[0])
+        ch = children(live, h)
+        keep = ch[3] > best_score
+        live = tuple(v[keep] for v in ch)
+        if h - 1 == 0 and len(live[0]):
+            i = int(np.argmax(live[3]))
+            best_score, best = float(live[3][i]), (int(live[0][i]), int(live[1][i]), int(live[2][i]))
+    if best is None:
+        return None
+    a, x0, y0 = best
+    pose = (guess[0] + (x0 - nw) * res, guess[1] + (y0 - nw) * res, float(angles[a]))
+    return CsmResult(pose, best_score, nodes)
+
+
+def _penalty(ox: np.ndarray, oy: np.ndarray, block: int, nw: int, res: float, w: float) -> np.ndarray:
+    """w·(smallest squared offset from the guess inside each block), m²."""
+    if w <= 0:
+        return np.zeros(len(ox))
+    def nearest(o: np.ndarray) -> np.ndarray:
+        lo, hi = o - nw, o - nw + block - 1
+        return np.where((lo <= 0) & (hi >= 0), 0, np.minimum(np.abs(lo), np.abs(hi))) * res
+    return w * (nearest(ox) ** 2 + nearest(oy) ** 2)

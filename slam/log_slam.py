@@ -1,0 +1,241 @@
+"""SLAM for recorded logs: every scan is a pose-graph node.
+
+Front end: the scan is matched against a local map (the recent scans at their current poses) by a
+correlative branch-and-bound search in a window around the odometry guess (`slam.csm`), then refined by
+point-to-line ICP. Odometry only seeds the window and adds a small score penalty (its trust); when it is
+missing, or the match in the normal window is poor, a wide window is searched. If no match is found the
+edge falls back to odometry with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
+(`slam.pose_graph.PoseGraph`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planning.grid import OccupancyGrid
+from sim.transforms import se2_between, se2_compose
+from sim.types import LidarScan, Pose2D
+from slam import se2
+from slam.csm import MatchGrid, search
+from slam.icp import IcpTarget, icp
+from slam.log_config import LogSlamConfig
+from slam.log_loops import LoopFinder
+from slam.mapping import OccupancyMapper
+from slam.pose_graph import PoseGraph
+
+
+def thin(points: np.ndarray, spacing: float) -> np.ndarray:
+    """One point per `spacing` cell (the first in scan order), scan order kept."""
+    if len(points) == 0:
+        return points
+    cells = np.floor(points / spacing).astype(np.int64)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    return points[np.sort(first)]
+
+
+def subsample(points: np.ndarray, n: int) -> np.ndarray:
+    return points if len(points) <= n else points[np.linspace(0, len(points) - 1, n).astype(int)]
+
+
+@dataclass
+class FrontEndStats:
+    matched: int = 0  # edges from the normal window
+    wide: int = 0  # edges that needed the wide window
+    odometry_only: int = 0  # no match: the odometry (or no motion) with a loose σ
+    local_map_builds: int = 0
+    times: list[float] = field(default_factory=list)  # s of wall time per scan
+    cpu_times: list[float] = field(default_factory=list)  # s of process CPU time per scan (all threads)
+
+
+class LogSlam:
+    def __init__(self, config: LogSlamConfig | None = None, initial_pose: Pose2D | None = None) -> None:
+        self.config = cfg = config or LogSlamConfig()
+        self.graph = PoseGraph(prior_sigmas=(1e-3, 1e-3, 1e-4))
+        self.poses: list[se2.PoseTuple] = []
+        self.points: list[np.ndarray] = []  # thinned returns per node, base frame
+        self.no_return: list[np.ndarray] = []
+        self.path: list[float] = []  # cumulative path length at each node
+        self.stamps: list[float] = []
+        self.odometry: list[se2.PoseTuple | None] = []
+        self.stats = FrontEndStats()
+        self.edges: list[tuple[int, int, se2.PoseTuple, np.ndarray]] = []  # kept factors, for graph.g2o
+        self._start = (initial_pose or Pose2D()).as_tuple()
+        self._local: tuple[MatchGrid, IcpTarget] | None = None
+        self._local_at = -1  # node index the local map was last built at
+        self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
+        self.loops = LoopFinder(cfg.loops, self)
+        fe = cfg.frontend
+        self._edge_floor = np.diag([fe.sigma_floor_xy ** 2, fe.sigma_floor_xy ** 2, fe.sigma_floor_yaw ** 2])
+        self._odom_cov = np.diag([fe.odom_sigma_xy ** 2, fe.odom_sigma_xy ** 2, fe.odom_sigma_yaw ** 2])
+
+    # ---- per scan ------------------------------------------------------------------------------------
+
+    def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True) -> Pose2D:
+        t0, c0 = time.perf_counter(), time.process_time()
+        cfg = self.config
+        pts, no_ret = self._preprocess(scan)
+        o = odom.as_tuple() if odom is not None else None
+        i = len(self.poses)
+        if i == 0:
+            pose = self._start
+            self.graph.add_pose(pose)
+            self._append(scan.stamp, pose, pts, no_ret, o, 0.0)
+            self.stats.times.append(time.perf_counter() - t0)
+            self.stats.cpu_times.append(time.process_time() - c0)
+            return Pose2D(*pose)
+        prev = self.poses[-1]
+        has_odom = odom_valid and o is not None and self.odometry[-1] is not None
+        if has_odom:
+            delta = se2_between(self.odometry[-1], o)  # type: ignore[arg-type]
+        else:  # no odometry: constant velocity (the previous step) seeds the wide window
+            delta = se2_between(self.poses[-2], prev) if i >= 2 else (0.0, 0.0, 0.0)
+        guess = se2_compose(prev, delta)
+        matched, cov = self._match(pts, guess, has_odom, delta)
+        if matched is None:
+            self.stats.odometry_only += 1
+            pose, rel, cov = guess, delta, self._odom_cov
+        else:
+            pose, rel = matched, se2_between(prev, matched)
+        self.graph.add_pose(pose, rel, cov)
+        self.edges.append((i - 1, i, rel, cov))
+        self._append(scan.stamp, pose, pts, no_ret, o, self.path[-1] + math.hypot(rel[0], rel[1]))
+        if cfg.loops.enabled:
+            self.loops.step(i)
+        self.stats.times.append(time.perf_counter() - t0)
+        self.stats.cpu_times.append(time.process_time() - c0)
+        return Pose2D(*self.poses[-1])
+
+    def _append(self, stamp: float, pose: se2.PoseTuple, pts: np.ndarray, no_ret: np.ndarray,
+                odom: se2.PoseTuple | None, path: float) -> None:
+        self.poses.append(pose)
+        self.points.append(pts)
+        self.no_return.append(no_ret)
+        self.odometry.append(odom)
+        self.stamps.append(stamp)
+        self.path.append(path)
+
+    def _preprocess(self, scan: LidarScan) -> tuple[np.ndarray, np.ndarray]:
+        cfg = self.config
+        r = scan.ranges
+        ang = scan.angles()
+        ok = np.isfinite(r) & (r >= max(cfg.min_range, scan.range_min)) & (r <= min(cfg.max_range, scan.range_max))
+        pts = np.column_stack([r[ok] * np.cos(ang[ok]), r[ok] * np.sin(ang[ok])])
+        return thin(pts, cfg.point_spacing), ang[~np.isfinite(r)]
+
+    def _match(self, pts: np.ndarray, guess: se2.PoseTuple, has_odom: bool, delta: se2.PoseTuple
+               ) -> tuple[se2.PoseTuple | None, np.ndarray]:
+        fe = self.config.frontend
+        if len(pts) < 10:
+            return None, self._odom_cov
+        grid, target = self._local_map()
+        sub = subsample(pts, fe.csm_points)
+        res = None
+        if has_odom:
+            res = search(grid, sub, guess, window_xy=fe.window_xy, window_yaw=fe.window_yaw,
+                         min_score=fe.min_score, prior_weight_xy=fe.odometry_trust_xy,
+                         prior_weight_yaw=fe.odometry_trust_yaw)
+        wide = res is None
+        if wide:
+            res = search(grid, subsample(pts, fe.wide_points), guess, window_xy=fe.wide_window_xy,
+                         window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
+                         max_range_for_step=5.0)
+        if res is None:
+            return None, self._odom_cov
+        fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
+                  inlier_distance=fe.icp_max_correspondence, range_sigma=fe.icp_range_sigma)
+        pose = fit.pose
+        if not fit.converged or math.hypot(pose[0] - res.pose[0], pose[1] - res.pose[1]) > 2 * grid.resolution:
+            pose = res.pose  # ICP wandered off the correlative optimum: keep the lattice pose
+        if wide:
+            self.stats.wide += 1
+        else:
+            self.stats.matched += 1
+        info = fit.information + 1e-9 * np.eye(3)
+        if has_odom and not wide:  # fuse with the odometry prior: it holds where the scan is degenerate
+            odo_info = np.linalg.inv(self._step_cov(delta))
+            d = np.array(se2_between(guess, pose))
+            fused = np.linalg.solve(info + odo_info, info @ d)
+            pose = se2_compose(guess, (float(fused[0]), float(fused[1]), float(fused[2])))
+            info = info + odo_info
+        return pose, np.linalg.inv(info) + self._edge_floor
+
+    def _step_cov(self, delta: se2.PoseTuple) -> np.ndarray:
+        """Odometry σ of one step: a floor plus a share of the motion (the odometry's trust)."""
+        fe = self.config.frontend
+        dist, turn = math.hypot(delta[0], delta[1]), abs(delta[2])
+        sxy = fe.odom_step_sigma_xy + fe.odom_step_sigma_per_m * dist
+        syaw = fe.odom_step_sigma_yaw + fe.odom_step_sigma_per_rad * turn + fe.odom_step_sigma_yaw_per_m * dist
+        return np.diag([sxy ** 2, sxy ** 2, syaw ** 2])
+
+    def _local_map(self) -> tuple[MatchGrid, IcpTarget]:
+        """The recent scans at their current poses, rebuilt when the robot moved or the poses changed."""
+        fe = self.config.frontend
+        n = len(self.poses)
+        last = self.poses[-1]
+        moved = se2_between(self._local_pose, last)
+        stale = (self._local is None or self._local_at < 0 or math.hypot(moved[0], moved[1]) > 0.1
+                 or abs(moved[2]) > 0.05)
+        if not stale and self._local is not None:
+            return self._local
+        path = np.array(self.path)
+        idx = np.nonzero(path >= path[-1] - fe.local_map_distance)[0]
+        if len(idx) > fe.local_map_scans:
+            idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
+        pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])
+        pts = thin(pts, fe.resolution / 2)
+        self._local = (MatchGrid(pts, fe.resolution, fe.sigma, margin=1.0), IcpTarget.from_points(pts))
+        self._local_at, self._local_pose = n - 1, last
+        self.stats.local_map_builds += 1
+        return self._local
+
+    def invalidate_local_map(self) -> None:
+        self._local_at = -1
+
+    def refresh_poses(self) -> None:
+        """Take the graph's optimised estimate (after a loop closure)."""
+        est = self.graph.poses()
+        self.poses = [(float(p[0]), float(p[1]), float(p[2])) for p in est]
+        self.invalidate_local_map()
+
+    # ---- results -------------------------------------------------------------------------------------
+
+    def finish(self) -> None:
+        """Converge iSAM2, then (config.final_batch) one Levenberg-Marquardt pass over the whole graph."""
+        self.graph.converge()
+        if self.config.final_batch and self.loops.accepted:
+            self.graph.batch_optimize()
+        self.refresh_poses()
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(self.stamps), np.array(self.poses)
+
+    def odometry_trajectory(self) -> np.ndarray:
+        """The odometry used, placed at the first pose (a missing step counts as no motion)."""
+        out = [self._start]
+        for a, b in zip(self.odometry[:-1], self.odometry[1:], strict=True):
+            d = se2_between(a, b) if a is not None and b is not None else (0.0, 0.0, 0.0)
+            out.append(se2_compose(out[-1], d))
+        return np.array(out[: len(self.poses)])
+
+    def map(self, poses: np.ndarray | None = None) -> OccupancyGrid:
+        """Occupancy grid from every scan that moved enough since the last integrated one."""
+        cfg = self.config
+        m = cfg.mapping
+        mapper = OccupancyMapper(resolution=m.resolution, log_odds_hit=m.log_odds_hit, log_odds_miss=m.log_odds_miss,
+                                 log_odds_min=m.log_odds_min, log_odds_max=m.log_odds_max,
+                                 occupied_threshold=m.occupied_threshold, free_threshold=m.free_threshold,
+                                 max_range=m.max_range, clear_no_return=False)
+        p = np.asarray(self.poses if poses is None else poses)
+        last: np.ndarray | None = None
+        for k in range(len(p)):
+            if last is not None:
+                d = se2.between_many(last[None], p[k][None])[0]
+                if math.hypot(d[0], d[1]) + abs(d[2]) / 10 < cfg.map_every_distance:
+                    continue
+            mapper.integrate((float(p[k][0]), float(p[k][1]), float(p[k][2])), self.points[k])
+            last = p[k]
+        return mapper.grid()

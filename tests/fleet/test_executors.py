@@ -86,3 +86,17 @@ def test_executor_names_and_options_are_checked():
         make_executor("local", ray_address="auto")
     assert isinstance(make_executor("local", jobs=1), InlineExecutor)
     assert isinstance(make_executor("local", jobs=3), PoolExecutor)
+
+
+def test_executor_ray_without_ray_says_how_to_install(tmp_path):
+    """`fleetnav run --executor ray` in an environment without Ray: exit 2 and the pip command, no traceback."""
+    import subprocess
+    import sys
+
+    quick = Path(__file__).resolve().parent / "data" / "quick_mission.yaml"
+    code = ("import sys; sys.modules['ray'] = None\n"  # makes `import ray` fail as if it were not installed
+            "from fleetnav.cli import app\n"
+            f"app(['run', {str(quick)!r}, '--executor', 'ray', '--out', {str(tmp_path)!r}])")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "pip install 'fleetnav[ray]'" in res.stderr and "Traceback" not in res.stderr

@@ -113,3 +113,34 @@ def test_a_worker_killed_mid_run_costs_one_retry(cluster, local, tmp_path):
 
 def test_pool_and_ray_share_the_retry_rules():
     assert PoolExecutor(2, retries=3).retries == RayExecutor(None, retries=3).retries == 3
+
+
+def test_pytest_plugin_runs_missions_on_the_cluster(cluster, tmp_path):
+    import subprocess
+    import sys
+
+    from tests.fleet.ray_cluster import ENV
+
+    data = Path(__file__).resolve().parent / "data"
+    args = ["-p", "no:cacheprovider", "--missions", str(data / "quick_mission.yaml"), "--missions",
+            str(data / "failing_mission.yaml"), "--missions-out", str(tmp_path / "runs"), "--missions-executor", "ray",
+            "--missions-ray-address", cluster, "-q", "--rootdir", str(tmp_path), str(tmp_path)]
+    res = subprocess.run([sys.executable, "-m", "pytest", *args], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=180, env=os.environ | ENV)
+    assert res.returncode == 1, res.stdout + res.stderr
+    assert "1 failed, 1 passed" in res.stdout
+    assert "too_fast: r1" in res.stdout
+    reports = sorted((tmp_path / "runs").rglob("report.json"))
+    assert [json.loads(p.read_text())["passed"] for p in reports] == [False, True]  # failing_mission, quick_mission
+
+
+def test_challenge_runs_on_the_cluster_match_runs_in_turn(cluster, tmp_path):
+    from fleet.grading import run_challenge
+
+    here = run_challenge("cluttered_1", controller="builtin:pure_pursuit", runs=2, out_dir=tmp_path / "here")
+    there = run_challenge("cluttered_1", controller="builtin:pure_pursuit", runs=2, out_dir=tmp_path / "ray",
+                          executor=RayExecutor(cluster))
+    assert [r.seed for r in there.runs] == [r.seed for r in here.runs] == [here.runs[0].seed, here.runs[0].seed + 1]
+    for a, b in zip(here.runs, there.runs, strict=True):
+        assert a.outcome == b.outcome and a.score == b.score
+        assert a.trajectory.shape == b.trajectory.shape and (a.trajectory == b.trajectory).all()

@@ -8,6 +8,7 @@ a Ctrl-C has little to cancel and the driver holds few results at a time.
 
 from __future__ import annotations
 
+import logging
 import os
 from collections import deque
 from typing import Any
@@ -47,7 +48,7 @@ class RayExecutor:
         ray = import_ray()
         if ray.is_initialized():
             return ray, False
-        kw: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": "warning"}
+        kw: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.WARNING}
         if self.address is None:
             kw |= {"num_cpus": self.num_cpus, "_node_ip_address": "127.0.0.1"}
         try:

@@ -13,16 +13,16 @@ from pathlib import Path
 
 import pytest
 
-from tests.fleet.ray_cluster import ENV
+from fleet.executors.ray_local import LOOPBACK_ENV
 
-os.environ.update(ENV)  # before Ray is imported: it reads them once (loopback only, no usage statistics)
+os.environ.update(LOOPBACK_ENV)  # before Ray is imported: it reads them once (loopback only, no usage statistics)
 ray = pytest.importorskip("ray", reason="Ray is not installed (pip install 'fleetnav[ray]'; the dev extra has it)")
 
 from fleet.executors import JobState, PoolExecutor  # noqa: E402
 from fleet.executors.ray_exec import RayExecutor  # noqa: E402
+from fleet.executors.ray_local import local_cluster, task_pids  # noqa: E402
 from fleet.missions.batch import as_outcome, mission_jobs, plan_runs, run_batch, write_batch_outputs  # noqa: E402
 from fleet.missions.report import comparable  # noqa: E402
-from tests.fleet.ray_cluster import ray_cluster, task_pids  # noqa: E402
 
 MISSIONS = Path(__file__).resolve().parents[2] / "configs" / "missions"
 PATHS = [str(MISSIONS / f"{n}.yaml") for n in ("arena_navigation", "coverage", "failure_injection")]
@@ -30,7 +30,7 @@ PATHS = [str(MISSIONS / f"{n}.yaml") for n in ("arena_navigation", "coverage", "
 
 @pytest.fixture(scope="module")
 def cluster():
-    with ray_cluster(cpus=2) as address:
+    with local_cluster(cpus=2) as address:
         yield address
 
 
@@ -119,14 +119,12 @@ def test_pytest_plugin_runs_missions_on_the_cluster(cluster, tmp_path):
     import subprocess
     import sys
 
-    from tests.fleet.ray_cluster import ENV
-
     data = Path(__file__).resolve().parent / "data"
     args = ["-p", "no:cacheprovider", "--missions", str(data / "quick_mission.yaml"), "--missions",
             str(data / "failing_mission.yaml"), "--missions-out", str(tmp_path / "runs"), "--missions-executor", "ray",
             "--missions-ray-address", cluster, "-q", "--rootdir", str(tmp_path), str(tmp_path)]
     res = subprocess.run([sys.executable, "-m", "pytest", *args], capture_output=True, text=True, cwd=tmp_path,
-                         timeout=180, env=os.environ | ENV)
+                         timeout=180, env=os.environ | LOOPBACK_ENV)
     assert res.returncode == 1, res.stdout + res.stderr
     assert "1 failed, 1 passed" in res.stdout
     assert "too_fast: r1" in res.stdout

@@ -72,6 +72,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=40, help="total runs (split evenly over the missions)")
     ap.add_argument("--no-ray", action="store_true", help="local executors only")
+    ap.add_argument("--reverse", action="store_true", help="Ray first, then -j 2, then -j 1 (load drifts on a "
+                    "shared machine: run both orders)")
     args = ap.parse_args()
     paths = [str(MISSIONS / f"{m}.yaml") for m in SWEEP]
     per = max(1, args.runs // len(paths))
@@ -85,9 +87,13 @@ def main() -> None:
             roots[name] = Path(tmp) / name
             return plan_runs(paths, roots[name], 100, per)
 
-        rows.append(sweep("local -j 1", InlineExecutor(), plan("j1"), roots["j1"], 1))
-        rows.append(sweep("local -j 2", PoolExecutor(2, preload=PRELOAD), plan("j2"), roots["j2"], 2))
-        if not args.no_ray:
+        def local(name: str) -> None:
+            if name == "j1":
+                rows.append(sweep("local -j 1", InlineExecutor(), plan("j1"), roots["j1"], 1))
+            else:
+                rows.append(sweep("local -j 2", PoolExecutor(2, preload=PRELOAD), plan("j2"), roots["j2"], 2))
+
+        def on_ray() -> None:
             from fleet.executors.ray_exec import RayExecutor
             from fleet.executors.ray_local import local_cluster
 
@@ -99,6 +105,11 @@ def main() -> None:
                 print(f"ray: connected to {address} in {connect_s:.2f} s", flush=True)
                 rows.append(sweep("ray, 2 workers", ex, plan("ray"), roots["ray"], 2) | {"connect_s": connect_s})
                 ray.shutdown()
+
+        steps = [lambda: local("j1"), lambda: local("j2")] + ([] if args.no_ray else [on_ray])
+        for step in reversed(steps) if args.reverse else steps:
+            step()
+        rows.sort(key=lambda r: ["local -j 1", "local -j 2", "ray, 2 workers"].index(r["executor"]))
         base = files(roots["j1"])
         for name in roots:
             same = files(roots[name]) == base

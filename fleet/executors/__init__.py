@@ -11,13 +11,14 @@ from __future__ import annotations
 
 from fleet.executors.base import Events, Executor, Job, JobResult, JobState, JobTimeout, run_job, write_files
 from fleet.executors.local import InlineExecutor, PoolExecutor
+from fleet.executors.mapping import run_map
 from fleet.executors.progress import SweepProgress, summary_table
 from sim.errors import ErrorCode, FleetError
 
 EXECUTORS = ("local", "ray")
 
 __all__ = ["EXECUTORS", "Events", "Executor", "InlineExecutor", "Job", "JobResult", "JobState", "JobTimeout",
-           "PoolExecutor", "SweepProgress", "make_executor", "run_job", "summary_table", "write_files"]
+           "PoolExecutor", "SweepProgress", "make_executor", "run_job", "run_map", "summary_table", "write_files"]
 
 
 def make_executor(name: str = "local", *, jobs: int | None = None, ray_address: str | None = None,

@@ -121,9 +121,10 @@ def run_job(index: int, job: Job) -> JobResult:
         res.state, res.error = JobState.TIMEOUT, str(exc)
     except Exception as exc:  # a broken run is reported, never takes the sweep down
         res.state, res.error = JobState.ERROR, f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
-    res.wall_s = time.perf_counter() - t0
-    res.files = collect_files(scratch)
-    shutil.rmtree(scratch, ignore_errors=True)
+    finally:  # also on Ctrl-C in the inline executor: no scratch folder is left behind
+        res.wall_s = time.perf_counter() - t0
+        res.files = collect_files(scratch)
+        shutil.rmtree(scratch, ignore_errors=True)
     return res
 
 

@@ -100,3 +100,42 @@ def test_executor_ray_without_ray_says_how_to_install(tmp_path):
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 2, res.stdout + res.stderr
     assert "pip install 'fleetnav[ray]'" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_ctrl_c_cancels_the_sweep_and_writes_the_partial_summary(tmp_path):
+    """SIGINT to `fleetnav run -j 2` once the first run has finished: exit 130, the finished runs are in
+    junit.xml and summary.json, the rest are not."""
+    import json
+    import subprocess
+    import sys
+    from xml.etree import ElementTree as ET
+
+    quick = Path(__file__).resolve().parent / "data" / "quick_mission.yaml"
+    out = tmp_path / "runs"
+    code = "from fleetnav.cli import app; app()"
+    proc = subprocess.Popen([sys.executable, "-c", code, "run", str(quick), "--repeat", "12", "-j", "2", "--out",
+                             str(out), "--no-record"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not list(out.rglob("report.json")) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stdout + stderr
+    assert "canceled:" in stderr
+    finished = sorted(p.parent.name for p in out.rglob("report.json"))
+    assert 1 <= len(finished) < 12
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["quick_mission"]["runs"] == len(finished)
+    suites = ET.parse(out / "junit.xml").getroot().findall("testsuite")
+    assert sorted(s.get("name") for s in suites) == sorted(f"quick_mission[seed={n.split('-')[1]}]" for n in finished)
+
+
+def test_run_map_puts_a_plain_loop_on_an_executor():
+    import math
+
+    from fleet.executors import run_map
+
+    seen = []
+    res = run_map(math.factorial, [5, 3, 0], jobs=2, show_progress=False, on_result=lambda r: seen.append(r.index))
+    assert [r.value for r in res] == [120, 6, 1] and sorted(seen) == [0, 1, 2]
+    assert [r.key for r in res] == ["5", "3", "0"]

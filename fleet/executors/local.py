@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing as mp
+import os
 import signal
 import time
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
@@ -105,7 +107,8 @@ class PoolExecutor:
             finish(jobs, JobResult(i, jobs[i].key, final, error=why, attempts=attempts[i]), results, on_event)
 
         try:
-            pool = [spawn() for _ in range(min(self.n, len(jobs)))]
+            with one_thread_per_worker():
+                pool = [spawn() for _ in range(min(self.n, len(jobs)))]
             while todo or any(w.job is not None for w in pool):
                 for w in pool:
                     if w.job is None and todo:
@@ -148,6 +151,23 @@ class PoolExecutor:
                         w.conn.send(None)
                 _stop(w, wait_s=0.0 if w.job is not None else 2.0)
         return fill(jobs, results, attempts, JobState.CANCELED)
+
+
+@contextlib.contextmanager
+def one_thread_per_worker() -> Iterator[None]:
+    """Workers (and the fork server, started with the first) see OMP/OpenBLAS/MKL limited to one thread, as
+    Ray does for a 1-CPU task: N workers × a BLAS thread per core would oversubscribe the cores they share."""
+    saved = {k: os.environ.get(k) for k in THREAD_VARS}
+    os.environ.update({k: "1" for k, v in saved.items() if v is None})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+
+
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 def _stop(w: _Worker, wait_s: float = 0.0) -> int | None:

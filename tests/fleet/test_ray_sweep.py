@@ -142,3 +142,17 @@ def test_challenge_runs_on_the_cluster_match_runs_in_turn(cluster, tmp_path):
     for a, b in zip(here.runs, there.runs, strict=True):
         assert a.outcome == b.outcome and a.score == b.score
         assert a.trajectory.shape == b.trajectory.shape and (a.trajectory == b.trajectory).all()
+
+
+def test_a_hung_run_is_stopped_on_its_ray_worker_by_its_own_limit(cluster):
+    """A job that would sleep 60 s with a 1 s limit: SIGALRM in the Ray worker ends it as TIMEOUT; the next
+    job on the cluster runs normally (the worker survived)."""
+    from fleet.executors import Job
+    from fleet.executors.mapping import call_one
+
+    t0 = time.monotonic()
+    res = RayExecutor(cluster).run([Job("hang", call_one, (time.sleep, 60.0), time_limit_s=1.0),
+                                    Job("ok", call_one, (abs, -3), time_limit_s=30.0)])
+    assert time.monotonic() - t0 < 45.0
+    assert res[0].state is JobState.TIMEOUT and "1 s" in res[0].error
+    assert res[1].state is JobState.DONE and res[1].value == 3

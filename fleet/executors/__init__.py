@@ -35,7 +35,7 @@ def make_executor(name: str = "local", *, jobs: int | None = None, ray_address: 
     if name == "ray":
         from fleet.executors.ray_exec import RayExecutor, import_ray
 
-        import_ray()  # fail now, with the install hint, rather than after planning the sweep
+        import_ray(loopback=ray_address is None)  # fail now, with the install hint, not after planning
         return RayExecutor(ray_address, retries=retries, num_cpus=jobs)
     raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown executor '{name}' (executors: {', '.join(EXECUTORS)})",
                      "use --executor local or --executor ray")

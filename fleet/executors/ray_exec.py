@@ -20,8 +20,12 @@ from sim.errors import ErrorCode, FleetError
 INSTALL_HINT = "install the extra: pip install 'fleetnav[ray]' (or run with --executor local)"
 
 
-def import_ray() -> Any:
-    """Ray, or a FleetError that says how to install it."""
+def import_ray(loopback: bool = False) -> Any:
+    """Ray, or a FleetError that says how to install it. `loopback`: a local instance will be started, so
+    keep it on 127.0.0.1 (Ray reads this once, at import). Never sends usage statistics."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    if loopback:
+        os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
     try:
         import ray
     except ImportError as exc:
@@ -42,17 +46,14 @@ class RayExecutor:
 
     def connect(self) -> tuple[Any, bool]:
         """(ray, started_here). A local instance stays on loopback and sends no usage statistics."""
-        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-        if self.address is None:
-            os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")  # single node: bind 127.0.0.1
-        ray = import_ray()
+        ray = import_ray(loopback=self.address is None)
         if ray.is_initialized():
             return ray, False
         kw: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.WARNING}
         if self.address is None:
             kw |= {"num_cpus": self.num_cpus, "_node_ip_address": "127.0.0.1"}
         try:
-            ray.init(address=self.address, **kw)
+            ray.init(address=self.address or "local", **kw)  # "local": a new instance, never a running one
         except ConnectionError as exc:
             raise FleetError(ErrorCode.NOT_FOUND, f"no Ray cluster at {self.address}: {exc}",
                              "start one with `ray start --head`, or omit --ray-address for a local instance") from exc

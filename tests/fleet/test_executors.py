@@ -127,7 +127,8 @@ def test_ctrl_c_cancels_the_sweep_and_writes_the_partial_summary(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["quick_mission"]["runs"] == len(finished)
     suites = ET.parse(out / "junit.xml").getroot().findall("testsuite")
-    assert sorted(s.get("name") for s in suites) == sorted(f"quick_mission[seed={n.split('-')[1]}]" for n in finished)
+    names = sorted(str(s.get("name")) for s in suites)
+    assert names == sorted(f"quick_mission[seed={n.split('-')[1]}]" for n in finished)
 
 
 def test_run_map_puts_a_plain_loop_on_an_executor():

@@ -30,8 +30,17 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
         out: Path | None = typer.Option(None, help="report directory (default challenge_results/<name>/<who>)"),
         leaderboard: Path | None = typer.Option(None, help="add the result to this leaderboard file"),
         name: str | None = typer.Option(None, help="the contestant's name on the leaderboard"),
-        as_json: bool = typer.Option(False, "--json", help="print the report as JSON")) -> None:
+        as_json: bool = typer.Option(False, "--json", help="print the report as JSON"),
+        executor: str = typer.Option("local", "--executor", help="local or ray (pip install 'fleetnav[ray]')"),
+        jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,
+                                        help="local: runs in parallel processes (default 1: in turn, here); ray: "
+                                             "CPUs of a Ray instance started here"),
+        ray_address: str | None = typer.Option(None, "--ray-address", help="with --executor ray: host:port or "
+                                               "auto; default: start a local Ray instance"),
+        retries: int = typer.Option(2, "--retries", min=0, max=10, help="re-runs of a run whose worker died"))\
+        -> None:
     """Grade a contestant: each run ends at the goal, a collision, the time limit, or an agent fault."""
+    from fleet.executors import make_executor
     from fleet.grading import RunResult, run_challenge
     from fleet.grading import leaderboard as board
     from sim.errors import FleetError
@@ -41,8 +50,10 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
             typer.echo(f"run {r.run} (seed {r.seed}): {r.outcome.value}, score {r.score.score:.3f} — {r.reason}")
 
     try:
+        ex = None if executor == "local" and (jobs or 1) == 1 and ray_address is None else \
+            make_executor(executor, jobs=jobs, ray_address=ray_address, retries=retries)
         report = run_challenge(challenge, agent=agent, controller=controller, runs=runs, out_dir=out,
-                               progress=progress)
+                               progress=progress, executor=ex)
         if leaderboard is not None:
             board.add(leaderboard, report, name)
     except FleetError as exc:

@@ -1,7 +1,8 @@
 """`fleetnav run | validate | replay | diff`: batch missions from the command line.
 
 Heavy imports live inside each command so `fleetnav --help` stays instant. Exit codes: 0 all good,
-1 an assertion failed (or runs differ), 2 bad input (a mission file that does not validate, a missing file).
+1 an assertion failed (or runs differ), 2 bad input (a mission file that does not validate, a missing file,
+an executor that is not installed), 130 canceled with Ctrl-C (the finished runs are summarized).
 """
 
 from __future__ import annotations
@@ -11,12 +12,14 @@ from pathlib import Path
 
 import typer
 
-EXIT_FAILED, EXIT_INPUT = 1, 2
+EXIT_FAILED, EXIT_INPUT, EXIT_CANCELED = 1, 2, 130
 
 
 def run(
     files: list[Path] = typer.Argument(..., help="mission YAML files", exists=True, dir_okay=False),
-    jobs: int = typer.Option(1, "-j", "--jobs", min=1, max=64, help="missions run in parallel processes"),
+    jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,
+                                    help="local: parallel worker processes (default 1); ray: CPUs of a Ray "
+                                         "instance started here (default all)"),
     seed: int | None = typer.Option(None, "--seed", help="override the missions' seed"),
     repeat: int = typer.Option(1, "--repeat", min=1, max=1000, help="run K seeds (seed, seed+1, ...) per mission"),
     out: Path = typer.Option(Path("runs"), "--out", help="output folder (one sub-folder per run)"),
@@ -25,9 +28,18 @@ def run(
     speed: float = typer.Option(1.0, "--speed", min=0.01, help="with --live: real-time factor to hold"),
     no_record: bool = typer.Option(False, "--no-record", help="skip the MCAP recording"),
     time_limit: float | None = typer.Option(None, "--time-limit", min=0.1, help="override the missions' time limit"),
+    executor: str = typer.Option("local", "--executor", help="local (process pool) or ray (pip install "
+                                 "'fleetnav[ray]')"),
+    ray_address: str | None = typer.Option(None, "--ray-address", help="with --executor ray: a cluster's "
+                                           "host:port, or auto (the cluster on this machine); default: start "
+                                           "a local Ray instance"),
+    retries: int = typer.Option(2, "--retries", min=0, max=10, help="re-runs of a run whose worker died"),
+    run_timeout: float = typer.Option(900.0, "--run-timeout", min=1.0, help="wall-clock limit of one run on "
+                                      "its worker, s (a hung agent is stopped there)"),
 ) -> None:
     """Run missions headless, faster than real time; exit 0 only if every assertion holds."""
     from fleet.missions.batch import RunRequest, plan_runs, run_batch, run_file, summarize, write_batch_outputs
+    from sim.errors import FleetError
 
     reqs = plan_runs([str(f) for f in files], out, seed, repeat, record=not no_record, time_limit=time_limit)
     if live:
@@ -41,7 +53,12 @@ def run(
         r = reqs[0]
         outcomes = [run_file(RunRequest(r.path, r.seed, r.out_dir, True, r.time_limit), live=view, pace=speed)]
     else:
-        outcomes = run_batch(reqs, jobs=jobs)
+        try:
+            outcomes = run_batch(reqs, jobs=jobs, executor=executor, ray_address=ray_address, retries=retries,
+                                 run_timeout=run_timeout)
+        except FleetError as exc:
+            typer.echo(f"error: {exc.message}" + (f" ({exc.hint})" if exc.hint else ""), err=True)
+            raise typer.Exit(EXIT_INPUT) from exc
     write_batch_outputs(outcomes, out)
     for o in outcomes:
         typer.echo(f"{o.summary()}  → {o.out_dir}")
@@ -51,6 +68,9 @@ def run(
     if repeat > 1:
         for name, s in summarize(outcomes).items():
             typer.echo(f"{name}: pass rate {s['pass_rate']:.0%} over {s['runs']} seeds")
+    if len(outcomes) < len(reqs):  # Ctrl-C: the summary above covers the runs that finished
+        typer.echo(f"canceled: {len(reqs) - len(outcomes)} of {len(reqs)} runs did not finish", err=True)
+        raise typer.Exit(EXIT_CANCELED)
     if any(a["name"] == "load" for o in outcomes for a in o.report["assertions"]):
         raise typer.Exit(EXIT_INPUT)
     raise typer.Exit(0 if all(o.passed for o in outcomes) else EXIT_FAILED)

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from fleet.config import FleetConfig
+from fleet.executors import Executor
 from fleet.grading.agent_run import drive_agent
 from fleet.grading.challenge import Challenge, ResolvedChallenge, load_challenge, resolve
 from fleet.grading.course_nav import navigation_rubric
@@ -34,9 +35,10 @@ Progress = Callable[[RunResult], None]
 
 def run_challenge(challenge: Challenge | str | Path, *, agent: str | None = None, controller: str | None = None,
                   runs: int | None = None, out_dir: str | Path | None = None,
-                  progress: Progress | None = None) -> ChallengeReport:
+                  progress: Progress | None = None, executor: Executor | None = None) -> ChallengeReport:
     """Grade `agent` (a command, e.g. "python my_nav.py") or `controller` ("builtin:mpc_osqp") on `challenge`
-    (a Challenge, a name in configs/challenges or a YAML path). Reports go to `out_dir`."""
+    (a Challenge, a name in configs/challenges or a YAML path). Reports go to `out_dir`. With `executor`
+    (fleet.executors) the runs are its jobs (a local pool, a Ray cluster); without, they run here in turn."""
     ch = challenge if isinstance(challenge, Challenge) else load_challenge(challenge)
     contestant = _contestant(agent, controller)
     if runs is not None and not 1 <= runs <= 100:
@@ -50,7 +52,12 @@ def run_challenge(challenge: Challenge | str | Path, *, agent: str | None = None
                         planner=ch.optimal_planner)
     fcl_world = FclWorld(rc.description)
     results = []
-    for k in range(runs if runs is not None else ch.runs):
+    n = runs if runs is not None else ch.runs
+    if executor is not None:
+        from fleet.grading.sweep import run_all
+
+        results = run_all(ch, contestant, n, plan.length, out, executor, progress)
+    for k in range(n) if executor is None else ():
         result = _run_once(rc, k, contestant, spec, plan.length, fcl_world, out)
         results.append(result)
         if progress is not None:

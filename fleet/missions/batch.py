@@ -1,4 +1,5 @@
-"""Many runs: files × seeds, in this process (`jobs=1`) or in `jobs` worker processes, a progress bar per run.
+"""Many runs: files × seeds, through an executor (fleet.executors: this process, a local pool of `jobs`
+worker processes, or Ray), one progress bar for the sweep and a summary table at the end.
 
 Outputs: `<out>/<mission>/` per run (`<out>/<mission>/seed-<s>/` with several seeds), plus `<out>/junit.xml`
 (every run) and `<out>/summary.json` (per mission: pass rate and the spread of each assertion's figure).
@@ -7,18 +8,15 @@ Outputs: `<out>/<mission>/` per run (`<out>/<mission>/seed-<s>/` with several se
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
-import queue
 import statistics
 import time
-import traceback
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.console import Console
 
+from fleet.executors import Job, JobResult, JobState, SweepProgress, make_executor, summary_table
 from fleet.missions.loader import load_mission
 from fleet.missions.report import junit_xml
 from fleet.missions.runner import MissionRunner
@@ -33,6 +31,10 @@ class RunRequest:
     out_dir: str
     record: bool = True
     time_limit: float | None = None
+    memory_mb: int = 500  # what a scheduler reserves for the run (see memory_estimate_mb)
+
+
+RUN_TIMEOUT_S = 900.0  # wall-clock limit of one run on its worker (a hung agent cannot hold a sweep forever)
 
 
 def run_file(req: RunRequest, progress: Any = None, live: Any = None, pace: float | None = None) -> RunOutcome:
@@ -58,9 +60,9 @@ def plan_runs(paths: list[str], out_root: Path, seed: int | None, repeat: int, r
     used: set[str] = set()
     for path in paths:
         try:
-            name, base = _name_and_seed(path)
+            name, base, mem = _plan_one(path)
         except FleetError:
-            name, base = Path(path).stem, 0
+            name, base, mem = Path(path).stem, 0, BASE_MB
         stem = name
         k = 2
         while name in used:  # the same mission twice: keep both outputs
@@ -71,77 +73,70 @@ def plan_runs(paths: list[str], out_root: Path, seed: int | None, repeat: int, r
         for s in seeds:
             out = out_root / name / f"seed-{s}" if repeat > 1 else out_root / name
             reqs.append(RunRequest(path, s if (seed is not None or repeat > 1) else None, str(out), record,
-                                   time_limit))
+                                   time_limit, mem))
     return reqs
 
 
-def _name_and_seed(path: str) -> tuple[str, int]:
+def _plan_one(path: str) -> tuple[str, int, int]:
     m = load_mission(path)
-    return m.name, m.seed
+    return m.name, m.seed, memory_estimate_mb(Path(m.world), len(m.robots))
 
 
-def run_batch(reqs: list[RunRequest], jobs: int = 1, show_progress: bool = True) -> list[RunOutcome]:
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[sim]}"),
-                  TimeElapsedColumn(), disable=not show_progress, transient=False) as bar:
-        ids = [bar.add_task(Path(r.path).stem + (f" seed {r.seed}" if r.seed is not None else ""), total=1.0, sim="")
-               for r in reqs]
-
-        def show(i: int, t: float, limit: float) -> None:
-            bar.update(ids[i], completed=min(1.0, t / limit), sim=f"{t:6.1f}/{limit:g} s sim")
-
-        if jobs <= 1:
-            return [_finish(bar, ids[i], run_file(r, progress=lambda t, lim, i=i: show(i, t, lim)))
-                    for i, r in enumerate(reqs)]
-        return _parallel(reqs, jobs, bar, ids, show)
+BASE_MB, PER_ROBOT_MB, PER_WORLD_KB_MB = 400, 20, 0.5
 
 
-def _parallel(reqs: list[RunRequest], jobs: int, bar: Progress, ids: list[Any], show: Any) -> list[RunOutcome]:
-    # Not fork: the parent may hold PyBullet clients and foxglove runtime threads. A fork server that has
-    # imported the runner once forks clean workers without paying the imports again.
-    ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(["fleet.missions.runner"])
-    q: Any = ctx.Queue()
-    results: list[RunOutcome | None] = [None] * len(reqs)
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_init_worker, initargs=(q,)) as pool:
-        futures: dict[Future[RunOutcome], int] = {pool.submit(_worker, i, r): i for i, r in enumerate(reqs)}
-        pending = set(futures)
-        while pending:
-            done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
-            _drain(q, show)
-            for f in done:
-                results[futures[f]] = _finish(bar, ids[futures[f]], f.result())
-        _drain(q, show)
-    return [r for r in results if r is not None]
+def memory_estimate_mb(world: Path, robots: int) -> int:
+    """What one run needs, for the scheduler: the interpreter with PyBullet, OMPL and GTSAM loaded, plus the
+    world (its SDF size stands in for its meshes and costmaps) and the robots (see docs/benchmarks-missions.md
+    for the measured peaks behind these constants)."""
+    kb = world.stat().st_size / 1024 if world.is_file() else 0.0
+    return int(BASE_MB + PER_ROBOT_MB * robots + PER_WORLD_KB_MB * kb)
 
 
-_QUEUE: Any = None
-
-
-def _init_worker(q: Any) -> None:
-    global _QUEUE
-    _QUEUE = q
-
-
-def _worker(i: int, req: RunRequest) -> RunOutcome:
-    try:
-        return run_file(req, progress=lambda t, limit: _QUEUE.put((i, t, limit)))
-    except Exception as exc:  # one broken run must not take the batch down: it is reported as failed
-        return _failed(req, Path(req.out_dir), f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}", 0.0, "crash")
-
-
-def _drain(q: Any, show: Any) -> None:
-    while True:
-        try:
-            i, t, limit = q.get_nowait()
-        except queue.Empty:
-            return
-        show(i, t, limit)
-
-
-def _finish(bar: Progress, task: Any, out: RunOutcome) -> RunOutcome:
-    verdict = "[green]PASS[/]" if out.passed else "[red]FAIL[/]"
-    bar.update(task, completed=1.0, description=f"{verdict} {bar.tasks[task].description}")
+def mission_job(req: RunRequest, scratch: Path) -> RunOutcome:
+    """The executor's job: run into the worker's scratch folder (its files travel back as data)."""
+    out = run_file(replace(req, out_dir=str(scratch)))
+    out.out_dir = Path(req.out_dir)
     return out
+
+
+def mission_jobs(reqs: list[RunRequest], run_timeout: float | None = RUN_TIMEOUT_S) -> list[Job]:
+    return [Job(_label(r), mission_job, r, r.out_dir, memory_mb=r.memory_mb, time_limit_s=run_timeout) for r in reqs]
+
+
+def run_batch(reqs: list[RunRequest], jobs: int | None = 1, show_progress: bool = True, *, executor: str = "local",
+              ray_address: str | None = None, retries: int = 2, run_timeout: float | None = RUN_TIMEOUT_S,
+              console: Console | None = None) -> list[RunOutcome]:
+    """Every request through an executor (`local`: this process or a pool of `jobs` processes; `ray`), one
+    progress bar for the sweep. Returns the finished runs in request order (a run that errored, timed out or
+    whose worker kept dying is a failed run); after Ctrl-C, runs that did not finish are left out."""
+    ex = make_executor(executor, jobs=jobs, ray_address=ray_address, retries=retries, preload=PRELOAD)
+    with SweepProgress(len(reqs), label="missions", verdict=_verdict, show=show_progress, console=console) as bar:
+        results = ex.run(mission_jobs(reqs, run_timeout), on_event=bar.event)
+    if show_progress:
+        (console or Console()).print(summary_table(results, _verdict, title="missions"))
+    return [as_outcome(reqs[r.index], r) for r in results if r.state is not JobState.CANCELED]
+
+
+PRELOAD = ("fleet.missions.runner",)
+
+
+def as_outcome(req: RunRequest, res: JobResult) -> RunOutcome:
+    if res.state is JobState.DONE:
+        assert isinstance(res.value, RunOutcome)
+        return res.value
+    kind = {JobState.TIMEOUT: "timeout", JobState.LOST: "lost"}.get(res.state, "crash")
+    return _failed(req, Path(req.out_dir), res.error or res.state.value, res.wall_s, kind)
+
+
+def _verdict(res: JobResult) -> str:
+    if res.state is JobState.DONE:
+        return "pass" if res.value.passed else "fail"
+    return res.state.value
+
+
+def _label(r: RunRequest) -> str:
+    return Path(r.path).stem + (f" seed {r.seed}" if r.seed is not None else "")
 
 
 def _failed(req: RunRequest, out: Path, error: str, wall: float, kind: str) -> RunOutcome:

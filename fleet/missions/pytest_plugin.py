@@ -27,6 +27,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--missions-seed", type=int, default=None, help="override the missions' seed")
     group.addoption("--missions-repeat", type=int, default=1, help="run K seeds of each mission")
     group.addoption("--missions-no-record", action="store_true", help="skip the MCAP recordings")
+    group.addoption("--missions-executor", default="local", choices=["local", "ray"],
+                    help="where mission runs execute: local (default) or ray (pip install 'fleetnav[ray]'); with "
+                         "ray or --missions-jobs > 1 every selected mission runs as one sweep when the first runs")
+    group.addoption("--missions-jobs", type=int, default=None, metavar="N",
+                    help="local: worker processes (default 1, one run at a time in this process); ray: CPUs of "
+                         "a Ray instance started here")
+    group.addoption("--missions-ray-address", default=None, metavar="ADDR",
+                    help="with --missions-executor ray: host:port or auto; default: start a local Ray instance")
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -87,13 +95,21 @@ class MissionItem(pytest.Item):
         except FleetError as exc:
             raise MissionSetupError(exc.message + (f" ({exc.hint})" if exc.hint else "")) from None
 
-    def runtest(self) -> None:
-        from fleet.missions.batch import RunRequest, run_file
+    def request(self) -> Any:
+        from fleet.missions.batch import RunRequest
 
         cfg = self.config
         out = Path(cfg.getoption("missions_out")) / self.path.stem / f"seed-{self.seed}"
-        outcome = run_file(RunRequest(str(self.path), self.seed, str(out),
-                                      record=not cfg.getoption("missions_no_record")))
+        return RunRequest(str(self.path), self.seed, str(out), record=not cfg.getoption("missions_no_record"))
+
+    def runtest(self) -> None:
+        from fleet.missions.batch import run_file
+
+        cfg = self.config
+        if cfg.getoption("missions_executor") == "ray" or (cfg.getoption("missions_jobs") or 1) > 1:
+            outcome = _sweep(self)
+        else:
+            outcome = run_file(self.request())
         for a in outcome.report.get("assertions", []):
             self.user_properties.append((a["name"], f"{'pass' if a['passed'] else 'FAIL'}: {a['measured']}"))
         if not outcome.passed:
@@ -109,6 +125,27 @@ class MissionItem(pytest.Item):
 
     def reportinfo(self) -> tuple[Path, int | None, str]:
         return self.path, None, f"mission {self.path.name} [{self.name}]"
+
+
+_RESULTS = pytest.StashKey[dict[str, "RunOutcome"]]()
+
+
+def _sweep(item: MissionItem) -> RunOutcome:
+    """The first mission item runs every selected mission item through the executor; each then reads its own."""
+    from fleet.missions.batch import run_batch
+
+    cfg = item.config
+    if _RESULTS not in cfg.stash:
+        items = [i for i in item.session.items if isinstance(i, MissionItem)]
+        outcomes = run_batch([i.request() for i in items], jobs=cfg.getoption("missions_jobs"), show_progress=False,
+                             executor=cfg.getoption("missions_executor"),
+                             ray_address=cfg.getoption("missions_ray_address"))
+        by_dir = {str(o.out_dir): o for o in outcomes}
+        cfg.stash[_RESULTS] = {i.nodeid: by_dir[i.request().out_dir] for i in items if i.request().out_dir in by_dir}
+    results = cfg.stash[_RESULTS]
+    if item.nodeid not in results:
+        raise MissionFailed("the sweep was canceled before this run finished")
+    return results[item.nodeid]
 
 
 @pytest.fixture

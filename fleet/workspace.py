@@ -60,13 +60,21 @@ class Workspace:
         self.outputs = self.root / "outputs"
         self.shipped = CONFIGS.resolve()
         self._written: set[Path] | None = None
+        self.trusted: list[Path] = []  # folders a trusted local config (a mission file) named: readable too
+
+    def trust(self, folder: str | Path) -> None:
+        """Let reads reach `folder` too: for files a trusted local config names (a mission's robot model and
+        the meshes beside it), never for paths a front-door call supplies."""
+        full = Path(folder).resolve()
+        if full not in self.trusted:
+            self.trusted.append(full)
 
     # ---- reads -------------------------------------------------------------------------------------------
 
     def readable(self, p: Path) -> bool:
         """Whether a resolved path lies inside the workspace or the shipped configs (the sim's read policy)."""
         full = p.resolve()
-        return _inside(full, self.root) or _inside(full, self.shipped)
+        return _inside(full, self.root) or _inside(full, self.shipped) or any(_inside(full, d) for d in self.trusted)
 
     def read(self, path: str | Path, what: str = "file", *, allow_dir: bool = False) -> Path:
         p = Path(_checked(path).removeprefix("file://"))

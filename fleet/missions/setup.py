@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fleet.config import FleetConfig
@@ -42,6 +43,9 @@ def spawn_robots(m: Mission, svc: FleetService, data: RunData) -> None:
                                                         ("solver_iterations", m.physics.solver_iterations))
                                       if v is not None})
     spawns = {sp.name: sp.pose for sp in svc.world.description.spawn_points}
+    for model in {r.model for r in m.robots} | {f.model for f in m.fleets if f.model}:
+        if Path(model).is_absolute():  # the loader made file models absolute; the mission file is trusted
+            svc.workspace.trust(Path(model).parent)
     for r in m.robots:
         pose = r.pose.pose() if r.pose is not None else spawns[r.spawn or ""]
         svc.spawn_robot(r.name, pose, model=r.model, fidelity=r.fidelity)

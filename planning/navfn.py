@@ -12,11 +12,14 @@ an extra cost (`unknown: optimistic`, Nav2's allow_unknown) or forbidden (`pessi
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 from scipy.ndimage import distance_transform_edt, map_coordinates
 from scipy.sparse.csgraph import dijkstra
@@ -92,7 +95,7 @@ class NavField:
         r, c = self.omap.cells(np.array([[x, y]]))
         return bool(self.omap.inside(r, c)[0]) and bool(np.isfinite(self.ctg[r[0], c[0]]))
 
-    def value(self, xy: np.ndarray) -> np.ndarray:
+    def value(self, xy: npt.ArrayLike) -> np.ndarray:
         """Bilinear cost-to-go at points (outside the map: large)."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         res = self.omap.resolution
@@ -144,7 +147,7 @@ def _graph(free: np.ndarray, weight: np.ndarray) -> sp.csr_matrix:
 def path_poses(path: np.ndarray, step: float = 0.02) -> np.ndarray:
     """(n, 3) poses every `step` along a polyline, heading along the path."""
     out = []
-    for p, q in zip(path[:-1], path[1:], strict=True):
+    for p, q in itertools.pairwise(path):
         seg = float(np.hypot(*(q - p)))
         if seg < 1e-12:
             continue
@@ -157,7 +160,7 @@ def path_poses(path: np.ndarray, step: float = 0.02) -> np.ndarray:
     return np.vstack([*out, [[path[-1][0], path[-1][1], last[2]]]])
 
 
-def shortcut(path: np.ndarray, ok: callable) -> np.ndarray:  # type: ignore[valid-type]
+def shortcut(path: np.ndarray, ok: Callable[[np.ndarray, np.ndarray], bool]) -> np.ndarray:
     """Greedy line-of-sight shortcut: from each kept point jump to the farthest point `ok(a, b)` accepts."""
     if len(path) <= 2:
         return path
@@ -190,7 +193,8 @@ def plan_path(omap: ObstacleMap, start: Pose2D, goal: Pose2D, footprint: RectFoo
 
     def clear(a: np.ndarray, b: np.ndarray) -> bool:
         poses = path_poses(np.array([a, b]))
-        return bool(footprint.distances(poses, omap.points_near(*(0.5 * (a + b)), _reach(a, b, footprint)))
+        mid = 0.5 * (a + b)
+        return bool(footprint.distances(poses, omap.points_near(float(mid[0]), float(mid[1]), _reach(a, b, footprint)))
                     .min(initial=np.inf) >= params.margin - 1e-9)
 
     path = shortcut(raw, clear)

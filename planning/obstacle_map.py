@@ -41,13 +41,14 @@ class ObstacleMap:
         self.occ = np.zeros((h, w), dtype=bool)
         self.points = np.zeros((0, 2))
         self.version = 0
-        self._cache: dict[str, tuple[int, object]] = {}
+        self._dist: tuple[int, np.ndarray] | None = None  # caches, valid while `version` is unchanged
+        self._tree: tuple[int, cKDTree] | None = None
 
     # ---- geometry -------------------------------------------------------------------------------------
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.occ.shape  # type: ignore[return-value]
+        return self.occ.shape
 
     @property
     def bounds(self) -> Bounds:
@@ -190,19 +191,17 @@ class ObstacleMap:
 
     def distance_field(self) -> np.ndarray:
         """(h, w) distance from each cell centre to the nearest occupied cell centre, m (inf: none)."""
-        hit = self._cache.get("dist")
-        if hit is not None and hit[0] == self.version:
-            return hit[1]  # type: ignore[return-value]
+        if self._dist is not None and self._dist[0] == self.version:
+            return self._dist[1]
         d = distance_transform_edt(~self.occ) * self.resolution if self.occ.any() else np.full(self.shape, np.inf)
-        self._cache["dist"] = (self.version, d)
+        self._dist = (self.version, d)
         return d
 
     def tree(self) -> cKDTree:
-        hit = self._cache.get("tree")
-        if hit is not None and hit[0] == self.version:
-            return hit[1]  # type: ignore[return-value]
+        if self._tree is not None and self._tree[0] == self.version:
+            return self._tree[1]
         t = cKDTree(self.points if len(self.points) else np.zeros((0, 2)))
-        self._cache["tree"] = (self.version, t)
+        self._tree = (self.version, t)
         return t
 
     def points_near(self, x: float, y: float, radius: float) -> np.ndarray:

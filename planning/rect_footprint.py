@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from sim.errors import ErrorCode, FleetError
 
@@ -57,7 +58,7 @@ class RectFootprint:
     def describe(self, margin: float) -> str:
         return f"footprint {self.length:.3f} × {self.width:.3f} m + safety margin {margin:.3f} m"
 
-    def distances(self, poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+    def distances(self, poses: npt.ArrayLike, points: np.ndarray) -> np.ndarray:
         """(P,) distance from the footprint at each pose (x, y, yaw) to the nearest of `points` (M, 2);
         0 when a point is inside, inf when there are no points."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
@@ -76,6 +77,6 @@ class RectFootprint:
     def corners(self, pose: tuple[float, float, float]) -> np.ndarray:
         """(4, 2) world corners at `pose`, CCW."""
         a, b = self.half
-        local = np.array([[a, b], [-a, b], [-a, -b], [a, -b]]) + [self.x_offset, 0.0]
+        local = np.array([[a, b], [-a, b], [-a, -b], [a, -b]]) + np.array([self.x_offset, 0.0])
         c, s = math.cos(pose[2]), math.sin(pose[2])
         return local @ np.array([[c, s], [-s, c]]) + [pose[0], pose[1]]

@@ -152,7 +152,7 @@ class SensorNavigator:
         if n >= 2 and self.margin > self.cfg.min_margin:
             self.margin = max(self.cfg.min_margin, self.margin / 2)
             self.dwa.margin = self.margin
-            steps.append(("replan with margin %.3f m" % self.margin, 0.0, 0.0, now))
+            steps.append((f"replan with margin {self.margin:.3f} m", 0.0, 0.0, now))
         # the durations chain: each step runs after the previous one
         t, chained = now, []
         for kind, v, wv, until in steps:

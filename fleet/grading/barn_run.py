@@ -15,13 +15,18 @@ from typing import Any
 
 from fleet.grading.barn import BARN_GOAL, BARN_START, V_OPT, BarnClock, barn_metric, optimal_length
 from planning.collision import FclWorld
+from planning.costmap import LayeredCostmap
 from planning.nav_types import NavState
+from planning.navigator import NavigatorConfig, make_navigator
 from planning.sensor_nav import SensorNavConfig, SensorNavigator
 from sim.errors import ErrorCode, FleetError
 from sim.robot_spec import RobotSpec
+from sim.types import LidarScan, Pose2D, WorldDescription
 from sim.world import World
 
-BUILTINS = ("footprint_dwa",)
+# footprint_dwa: the sensor navigator (map_source decides what it knows); navigator: planning.Navigator, the
+# pre-existing stack (circumscribed-disc inflation on the prior map, guided Theta* + MPC), kept as the baseline.
+BUILTINS = ("footprint_dwa", "navigator")
 MAX_SIM_S = 120.0  # BARN's 100 s after the start-move, plus room for a robot that never starts
 
 
@@ -65,7 +70,9 @@ def _row(job: BarnJob, **kw: Any) -> dict[str, Any]:
                             "timed_out": False, "time_s": math.nan, "distance_to_goal": math.nan,
                             "path_length": 0.0, "min_clearance": math.nan, "barn_metric": 0.0, "t_opt": math.nan,
                             "optimal_length": math.nan, "outcome": "", "reason": "",
-                            "map_source": job.nav.get("map_source", "sensors"), "controller": job.controller}
+                            "map_source": "prior" if job.controller == "navigator"
+                            else job.nav.get("map_source", "sensors"),
+                            "controller": job.controller, "robot": job.spec.get("name", "")}
     base.update(kw)
     return base
 
@@ -82,8 +89,7 @@ def _run(job: BarnJob) -> dict[str, Any]:
         world.spawn_robot("r1", BARN_START, spec)
         world.run_for(0.2)  # a first scan exists before the first decision
         control_dt = 1.0 / job.control_hz
-        nav = SensorNavigator(cfg, spec, control_dt=control_dt,
-                              prior=desc if cfg.map_source in ("prior", "both") else None)
+        nav = _builtin(job.controller, cfg, spec, desc, control_dt)
         nav.set_goal(BARN_GOAL, world.time, BARN_START)
         clock = BarnClock()
         steps = max(1, round(job.physics_hz / job.control_hz))
@@ -118,6 +124,48 @@ def _run(job: BarnJob) -> dict[str, Any]:
                 optimal_length=round(l_opt, 4), outcome=outcome,
                 reason=nav.reason if outcome == "nav_failed" else "",
                 replans=nav.replans, recoveries=nav.recoveries)
+
+
+class _Baseline:
+    """planning.Navigator on the world's prior costmap (grown to cover start and goal), the same interface."""
+
+    def __init__(self, spec: RobotSpec, desc: WorldDescription) -> None:
+        x0, y0, x1, y1 = desc.bounds(margin=1.0)
+        bounds = (min(x0, BARN_START.x, BARN_GOAL.x) - 3.0, min(y0, BARN_START.y, BARN_GOAL.y) - 3.0,
+                  max(x1, BARN_START.x, BARN_GOAL.x) + 3.0, max(y1, BARN_START.y, BARN_GOAL.y) + 3.0)
+        costmap = LayeredCostmap.from_world(desc, robot_radius=spec.footprint_radius, bounds=bounds,
+                                            sensor_offset=(spec.mast.x_offset, 0.0))
+        self.nav = make_navigator(NavigatorConfig(timeout_s=MAX_SIM_S), costmap=costmap, spec=spec)
+
+    def set_goal(self, goal: Pose2D, now: float, start: Pose2D) -> None:
+        self.nav.set_goal(goal, now)
+
+    def tick(self, now: float, pose: Pose2D, twist: tuple[float, float], scan: LidarScan | None) -> tuple[float, float]:
+        return self.nav.tick(now, pose, twist, scan)
+
+    @property
+    def state(self) -> NavState:
+        return self.nav.state
+
+    @property
+    def reason(self) -> str:
+        return self.nav.status().reason
+
+    @property
+    def replans(self) -> int:
+        return self.nav.status().replans
+
+    @property
+    def recoveries(self) -> int:
+        return self.nav.status().recoveries
+
+
+def _builtin(name: str, cfg: SensorNavConfig, spec: RobotSpec, desc: WorldDescription,
+             control_dt: float) -> SensorNavigator | _Baseline:
+    if name == "navigator":
+        return _Baseline(spec, desc)
+    return SensorNavigator(cfg, spec, control_dt=control_dt,
+                           prior=desc if cfg.map_source in ("prior", "both") else None)
 
 
 def job_dict(job: BarnJob) -> dict[str, Any]:

@@ -76,9 +76,13 @@ class FootprintDwa:
         admissible = (first == T) | ((first > 0) & (free_len >= stop))
         # a twist whose very first pose already collides is never admissible (unless it is a pure rotation
         # out of an overlap: handled by the caller's recovery)
-        last = np.maximum(first - 1, 0)
-        end = poses[np.arange(K), last]
-        ctg = field.value(end[:, :2])
+        # each rollout is judged at its best collision-free pose (lowest cost-to-go): one that passes the
+        # goal is not blamed for overshooting it within the horizon
+        along = field.value(flat[:, :2]).reshape(K, T)
+        along = np.where(np.arange(T)[None, :] < np.maximum(first, 1)[:, None], along, np.inf)
+        best = np.argmin(along, axis=1)
+        end = poses[np.arange(K), best]
+        ctg = along[np.arange(K), best]
         # heading: the downhill direction of the field at the end pose
         g = _gradient(field, end[:, :2], omap.resolution)
         head = np.where(np.hypot(g[:, 0], g[:, 1]) > 1e-9,
@@ -127,6 +131,7 @@ def _rollouts(pose: Pose2D, v: np.ndarray, w: np.ndarray, t: np.ndarray) -> np.n
 
 
 def _gradient(field: NavField, xy: np.ndarray, h: float) -> np.ndarray:
-    gx = field.value(xy + [h, 0.0]) - field.value(xy - [h, 0.0])
-    gy = field.value(xy + [0.0, h]) - field.value(xy - [0.0, h])
+    dx, dy = np.array([h, 0.0]), np.array([0.0, h])
+    gx = field.value(xy + dx) - field.value(xy - dx)
+    gy = field.value(xy + dy) - field.value(xy - dy)
     return np.column_stack([gx, gy]) / (2 * h)

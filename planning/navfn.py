@@ -44,23 +44,35 @@ class FieldParams:
 
 
 class NavField:
-    """Cost-to-go (m, weighted) from every cell of `omap` to `goal`; `inf` where the goal is unreachable."""
+    """Cost-to-go (m, weighted) from every cell of `omap` (or of a `window` of it) to `goal`; `inf` where the
+    goal is unreachable."""
 
-    def __init__(self, omap: ObstacleMap, goal: Pose2D, footprint: RectFootprint, params: FieldParams) -> None:
+    def __init__(self, omap: ObstacleMap, goal: Pose2D, footprint: RectFootprint, params: FieldParams,
+                 window: tuple[float, float, float, float] | None = None) -> None:
         self.omap, self.goal, self.footprint, self.params = omap, goal, footprint, params
         self.version = omap.version
         res = omap.resolution
-        dist = omap.distance_field()
+        h0, w0 = omap.shape
+        if window is None:
+            r0, c0, r1, c1 = 0, 0, h0, w0
+        else:
+            (ra, rb), (ca, cb) = omap.cells(np.array([[window[0], window[1]], [window[2], window[3]]]))
+            r0, c0 = max(0, int(ra)), max(0, int(ca))
+            r1, c1 = min(h0, int(rb) + 1), min(w0, int(cb) + 1)
+        self.r0, self.c0 = r0, c0
+        self.origin = (omap.origin[0] + c0 * res, omap.origin[1] + r0 * res)
+        dist = omap.distance_field()[r0:r1, c0:c1]
+        seen = omap.seen[r0:r1, c0:c1]
         self.need = footprint.inscribed + params.margin
         free = dist >= self.need - res
         if params.unknown == "pessimistic":
-            free &= omap.seen
+            free &= seen
         excess = np.maximum(dist - self.need, 0.0)
         weight = 1.0 + params.cost_weight * np.exp(-params.cost_decay * excess) * (excess < params.inflation_radius)
         if params.unknown == "optimistic":
-            weight = weight + params.unknown_cost * ~omap.seen
+            weight = weight + params.unknown_cost * ~seen
         self.free = free
-        gr, gc = omap.cells(np.array([[goal.x, goal.y]]))
+        gr, gc = self._cells(np.array([[goal.x, goal.y]]))
         self.goal_cell = self._nearest_free(int(gr[0]), int(gc[0]))
         h, w = free.shape
         if self.goal_cell is None:
@@ -91,22 +103,27 @@ class NavField:
         d, (ir, ic) = distance_transform_edt(~finite, return_indices=True)
         return np.where(finite, self.ctg, self.ctg[ir, ic] + 10.0 * d * self.omap.resolution)
 
+    def _cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rows, cols = self.omap.cells(xy)
+        return rows - self.r0, cols - self.c0
+
     def reachable(self, x: float, y: float) -> bool:
-        r, c = self.omap.cells(np.array([[x, y]]))
-        return bool(self.omap.inside(r, c)[0]) and bool(np.isfinite(self.ctg[r[0], c[0]]))
+        r, c = self._cells(np.array([[x, y]]))
+        h, w = self.ctg.shape
+        return bool(0 <= r[0] < h and 0 <= c[0] < w) and bool(np.isfinite(self.ctg[r[0], c[0]]))
 
     def value(self, xy: npt.ArrayLike) -> np.ndarray:
         """Bilinear cost-to-go at points (outside the map: large)."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         res = self.omap.resolution
-        fr = (xy[:, 1] - self.omap.origin[1]) / res - 0.5
-        fc = (xy[:, 0] - self.omap.origin[0]) / res - 0.5
+        fr = (xy[:, 1] - self.origin[1]) / res - 0.5
+        fc = (xy[:, 0] - self.origin[0]) / res - 0.5
         return np.asarray(map_coordinates(self._smooth, [fr, fc], order=1, mode="nearest"))
 
     def descent(self, start: tuple[float, float], max_steps: int = 20000) -> np.ndarray:
         """The grid path downhill from `start` to the goal cell, (n, 2) cell centres (empty if unreachable)."""
-        r0, c0 = self.omap.cells(np.array([start]))
-        r, c = int(r0[0]), int(c0[0])
+        rs, cs = self._cells(np.array([start]))
+        r, c = int(rs[0]), int(cs[0])
         h, w = self.ctg.shape
         if not (0 <= r < h and 0 <= c < w) or not np.isfinite(self.ctg[r, c]):
             return np.zeros((0, 2))
@@ -123,8 +140,8 @@ class NavField:
             r, c = nxt
             cells.append(nxt)
         rc = np.array(cells)
-        xs, ys = self.omap.cell_centres()
-        return np.column_stack([xs[rc[:, 1]], ys[rc[:, 0]]])
+        res = self.omap.resolution
+        return np.column_stack([self.origin[0] + (rc[:, 1] + 0.5) * res, self.origin[1] + (rc[:, 0] + 0.5) * res])
 
 
 def _graph(free: np.ndarray, weight: np.ndarray) -> sp.csr_matrix:

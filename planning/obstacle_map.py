@@ -26,7 +26,7 @@ Bounds = tuple[float, float, float, float]
 
 
 class ObstacleMap:
-    def __init__(self, bounds: Bounds, *, resolution: float = 0.05, point_resolution: float = 0.01,
+    def __init__(self, bounds: Bounds, *, resolution: float = 0.05, point_resolution: float = 0.02,
                  grow_step: float = 2.0, obstacle_max_range: float = 8.0, raytrace_max_range: float = 8.0,
                  clear_lateral: float = 0.01, clear_behind: float = 0.06) -> None:
         if not (resolution > 0 and point_resolution > 0):
@@ -134,7 +134,6 @@ class ObstacleMap:
         ang = scan.angles() + pose.yaw
         hit = np.isfinite(rng) & (rng >= scan.range_min) & (rng <= self.obstacle_max_range)
         reach = min(scan.range_max, self.raytrace_max_range)
-        self.ensure((ox - reach, oy - reach, ox + reach, oy + reach))
         self._clear_contradicted(ox, oy, pose.yaw, scan, rng, reach)
         self._mark_seen(ox, oy, ang, np.where(np.isfinite(rng), np.minimum(rng, reach), reach))
         if hit.any():

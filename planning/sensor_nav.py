@@ -35,6 +35,7 @@ class SensorNavConfig(StrictModel):
     resolution: float = Field(0.05, gt=0)
     map_margin: float = Field(3.0, ge=0, description="the map covers start and goal plus this, m (grows later)")
     replan_period_s: float = Field(0.3, gt=0)
+    obstacle_max_range: float = Field(6.0, gt=0, description="lidar returns farther than this are not mapped, m")
     goal_tolerance: float = Field(0.3, gt=0)
     progress_timeout_s: float = Field(4.0, gt=0)
     timeout_s: float | None = Field(None, gt=0)
@@ -60,8 +61,8 @@ class SensorNavigator:
                                 max_w=lim.max_angular, max_a=lim.max_linear_accel, max_alpha=lim.max_angular_accel,
                                 control_dt=control_dt)
         self.omap = ObstacleMap((-1.0, -1.0, 1.0, 1.0), resolution=cfg.resolution,
-                                obstacle_max_range=spec.sensors.lidar.range_max,
-                                raytrace_max_range=min(spec.sensors.lidar.range_max, 8.0))
+                                obstacle_max_range=min(spec.sensors.lidar.range_max, cfg.obstacle_max_range),
+                                raytrace_max_range=min(spec.sensors.lidar.range_max, cfg.obstacle_max_range))
         if cfg.map_source in ("prior", "both"):
             if prior is None:
                 raise ValueError("map_source prior/both needs the world description")
@@ -79,12 +80,13 @@ class SensorNavigator:
         self._best = math.inf
         self._t_best = 0.0
         self._recovery: list[tuple[str, float, float, float]] = []  # (kind, v, w, until)
+        self._start = Pose2D(0.0, 0.0, 0.0)
 
     def set_goal(self, goal: Pose2D, now: float, start: Pose2D) -> None:
         m = self.cfg.map_margin
         self.omap.ensure((min(start.x, goal.x) - m, min(start.y, goal.y) - m,
                           max(start.x, goal.x) + m, max(start.y, goal.y) + m))
-        self.goal, self.state, self.reason = goal, NavState.PLANNING, ""
+        self.goal, self.state, self.reason, self._start = goal, NavState.PLANNING, "", start
         self._t0 = self._t_best = now
         self._best = math.inf
         self.field = None
@@ -130,7 +132,10 @@ class SensorNavigator:
         c = self.cfg
         params = FieldParams(margin=self.margin, inflation_radius=c.inflation_radius, cost_weight=c.cost_weight,
                              cost_decay=c.cost_decay, unknown=c.unknown, unknown_cost=c.unknown_cost)
-        self.field = NavField(self.omap, self.goal, self.footprint, params)
+        m, g = c.map_margin, self.goal
+        window = (min(pose.x, g.x, self._start.x) - m, min(pose.y, g.y, self._start.y) - m,
+                  max(pose.x, g.x, self._start.x) + m, max(pose.y, g.y, self._start.y) + m)
+        self.field = NavField(self.omap, self.goal, self.footprint, params, window)
         self._t_plan = now
         self.replans += 1
 

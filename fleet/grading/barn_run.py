@@ -56,12 +56,13 @@ def check_controller(name: str) -> str:
 def run_barn_job(job: BarnJob) -> dict[str, Any]:
     """Run one world once; returns the results.jsonl row. Never raises for a navigation failure (the row
     says what happened); setup errors (bad world file) come back as outcome 'error' with the message."""
-    wall0 = time.perf_counter()
+    wall0, cpu0 = time.perf_counter(), time.process_time()
     try:
         row = _run(job)
     except FleetError as exc:
         row = _row(job, outcome="error", reason=f"{exc.code.value}: {exc.message}")
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
+    row["cpu_s"] = round(time.process_time() - cpu0, 3)  # this process's CPU time: wall time on an idle core
     return row
 
 

@@ -48,6 +48,7 @@ def summarize_barn(rows: list[dict[str, Any]]) -> dict[str, Any]:
     n = len(rows)
     ok = [r for r in rows if r["success"]]
     wall = [r["wall_s"] for r in rows if "wall_s" in r]
+    cpu = [r["cpu_s"] for r in rows if "cpu_s" in r]
     return {
         "metric": "BARN: success × T_opt / clip(T, 2·T_opt, 8·T_opt), T_opt = path-file length / 2.0 m/s",
         "runs": n, "worlds": len({r["world_id"] for r in rows}), "successes": len(ok),
@@ -59,6 +60,7 @@ def summarize_barn(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "min_clearance": min((r["min_clearance"] for r in rows if not math.isnan(r["min_clearance"])),
                              default=math.nan),
         "wall_s_per_run": {"mean": sum(wall) / len(wall) if wall else math.nan, "max": max(wall, default=math.nan)},
+        "cpu_s_per_run": {"mean": sum(cpu) / len(cpu) if cpu else math.nan, "max": max(cpu, default=math.nan)},
     }
 
 

@@ -109,12 +109,9 @@ class FootprintDwa:
         out = np.where(ok, np.maximum(bound, 0.0), 0.0)
         exact = ok & (bound < self.margin + self.cfg.clearance_soft)
         if exact.any():
-            sub = flat[exact]
-            lo, hi = sub[:, :2].min(axis=0), sub[:, :2].max(axis=0)
-            c = 0.5 * (lo + hi)
-            r = 0.5 * float(np.hypot(*(hi - lo))) + fp.circumscribed + self.margin + self.cfg.clearance_soft
-            pts = omap.points_near(float(c[0]), float(c[1]), r)
-            out[exact] = fp.distances(sub, pts) if len(pts) else np.inf
+            reach = math.hypot(*fp.half) + self.margin + self.cfg.clearance_soft
+            out[exact] = np.minimum(fp.distances_near(flat[exact], omap.tree(), omap.points, reach),
+                                    self.margin + self.cfg.clearance_soft)
         return out
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -48,7 +48,8 @@ class NavField:
     goal is unreachable."""
 
     def __init__(self, omap: ObstacleMap, goal: Pose2D, footprint: RectFootprint, params: FieldParams,
-                 window: tuple[float, float, float, float] | None = None) -> None:
+                 window: tuple[float, float, float, float] | None = None,
+                 blocked: Sequence[tuple[float, float, float]] = ()) -> None:
         self.omap, self.goal, self.footprint, self.params = omap, goal, footprint, params
         self.version = omap.version
         res = omap.resolution
@@ -67,6 +68,11 @@ class NavField:
         free = dist >= self.need - res
         if params.unknown == "pessimistic":
             free &= seen
+        if blocked:  # discs (x, y, r) the robot found it cannot pass: the field routes around them
+            xs = self.origin[0] + (np.arange(free.shape[1]) + 0.5) * res
+            ys = self.origin[1] + (np.arange(free.shape[0]) + 0.5) * res
+            for bx, by, br in blocked:
+                free &= ((xs[None, :] - bx) ** 2 + (ys[:, None] - by) ** 2) > br * br
         excess = np.maximum(dist - self.need, 0.0)
         weight = 1.0 + params.cost_weight * np.exp(-params.cost_decay * excess) * (excess < params.inflation_radius)
         if params.unknown == "optimistic":

@@ -31,7 +31,7 @@ class SensorNavConfig(StrictModel):
                                   "world's obstacles; both: prior map corrected by the lidar")
     unknown: Literal["optimistic", "pessimistic"] = "optimistic"
     margin: float = Field(0.05, ge=0, description="safety margin between footprint and obstacles, m")
-    min_margin: float = Field(0.01, ge=0, description="smallest margin a recovery replan may fall back to, m")
+    min_margin: float = Field(0.03, ge=0, description="smallest margin a recovery replan may fall back to, m")
     resolution: float = Field(0.05, gt=0)
     map_margin: float = Field(3.0, ge=0, description="the map covers start and goal plus this, m (grows later)")
     replan_period_s: float = Field(0.3, gt=0)
@@ -81,6 +81,7 @@ class SensorNavigator:
         self._t_best = 0.0
         self._recovery: list[tuple[str, float, float, float]] = []  # (kind, v, w, until)
         self._start = Pose2D(0.0, 0.0, 0.0)
+        self._blocks: list[tuple[float, float, float]] = []  # pinch points the footprint could not pass
 
     def set_goal(self, goal: Pose2D, now: float, start: Pose2D) -> None:
         m = self.cfg.map_margin
@@ -115,6 +116,7 @@ class SensorNavigator:
             self._best, self._t_best = here, now
         elif now - self._t_best > self.cfg.progress_timeout_s:
             self._begin_recovery(now, pose, f"no progress for {self.cfg.progress_timeout_s:g} s")
+            self._block_ahead(pose)
             return (0.0, 0.0)
         choice = self.dwa.choose(pose, twist, self.field, self.omap)
         if choice.admissible == 0:
@@ -135,11 +137,27 @@ class SensorNavigator:
         m, g = c.map_margin, self.goal
         window = (min(pose.x, g.x, self._start.x) - m, min(pose.y, g.y, self._start.y) - m,
                   max(pose.x, g.x, self._start.x) + m, max(pose.y, g.y, self._start.y) + m)
-        self.field = NavField(self.omap, self.goal, self.footprint, params, window)
+        self.field = NavField(self.omap, self.goal, self.footprint, params, window, self._blocks)
+        if self._blocks and not self.field.reachable(pose.x, pose.y):  # the blocks closed every way: forget them
+            self._blocks = []
+            self.field = NavField(self.omap, self.goal, self.footprint, params, window)
         self._t_plan = now
         self.replans += 1
 
     # ---- recoveries -----------------------------------------------------------------------------------
+
+    def _block_ahead(self, pose: Pose2D) -> None:
+        """The route leads where the rectangle does not fit (the field only knows the centre): close the pinch
+        0.35 m down the field from here so the next plan takes another way (forgotten if none is left)."""
+        if self.field is None:
+            return
+        e = 0.05
+        gx = float(self.field.value([[pose.x + e, pose.y]])[0] - self.field.value([[pose.x - e, pose.y]])[0])
+        gy = float(self.field.value([[pose.x, pose.y + e]])[0] - self.field.value([[pose.x, pose.y - e]])[0])
+        n = math.hypot(gx, gy)
+        if n > 1e-9:
+            self._blocks.append((pose.x - 0.35 * gx / n, pose.y - 0.35 * gy / n, 0.2))
+            self.field = None  # replan at once
 
     def _begin_recovery(self, now: float, pose: Pose2D, why: str) -> None:
         assert self.field is not None

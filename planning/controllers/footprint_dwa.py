@@ -26,7 +26,7 @@ from sim.types import Pose2D
 
 class DwaConfig(StrictModel):
     horizon_s: float = 1.6
-    dt: float = 0.1
+    dt: float = 0.05  # between checked poses; the check widens by half the footprint's sweep between them
     v_samples: int = 9
     w_samples: int = 15
     max_reverse: float = 0.3  # m/s
@@ -68,7 +68,14 @@ class FootprintDwa:
         K, T = V.size, self.t.size
         flat = poses.reshape(-1, 3)
         clear = self._clearance(flat, omap).reshape(K, T)
-        hit = clear < self.margin
+        # a point obstacle missed between two checked poses is within half the sweep of one of them
+        sweep = 0.5 * (np.abs(V) + np.abs(W) * self.fp.circumscribed) * cfg.dt
+        thr = self.margin + sweep
+        # already inside the margin (pushed there by what the lidar saw late): any motion that gets no closer
+        # than now (and never closer than 1 cm) is allowed, so the robot can always back or turn out
+        here = float(self._clearance(np.array([[pose.x, pose.y, pose.yaw]]), omap)[0])
+        thr = np.where(here < thr, max(here - 1e-3, 0.01), thr)
+        hit = clear < thr[:, None]
         first = np.where(hit.any(axis=1), hit.argmax(axis=1), T)  # index of the first colliding pose
         travel = np.abs(V) * self.t[np.minimum(first, T - 1)] * (first < T) + np.abs(V) * self.t[-1] * (first == T)
         free_len = np.where(first < T, np.abs(V) * np.where(first > 0, self.t[np.maximum(first - 1, 0)], 0.0), travel)

@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from fleet.grading.barn import BARN_GOAL, BARN_START, V_OPT, BarnClock, barn_metric, optimal_length
 from planning.collision import FclWorld
 from planning.costmap import LayeredCostmap
@@ -96,10 +98,14 @@ def _run(job: BarnJob) -> dict[str, Any]:
         steps = max(1, round(job.physics_hz / job.control_hz))
         prev = world.robot_pose("r1")
         driven, clearance = 0.0, math.inf
+        returns, scans = 0, 0  # lidar returns seen: a lidar mounted above the obstacles sees none
         t_origin = world.time
         while not clock.outcome and world.time - t_origin < MAX_SIM_S:
             pose = world.robot_pose("r1")
-            v, w = nav.tick(world.time, pose, world.robot_twist("r1"), world.latest_scan("r1"))
+            scan = world.latest_scan("r1")
+            if scan is not None:
+                returns, scans = returns + int(np.isfinite(scan.ranges).sum()), scans + 1
+            v, w = nav.tick(world.time, pose, world.robot_twist("r1"), scan)
             if nav.state is NavState.FAILED:
                 break
             world.set_cmd_vel("r1", v, w)
@@ -124,7 +130,8 @@ def _run(job: BarnJob) -> dict[str, Any]:
                 barn_metric=round(barn_metric(success, t, t_opt), 4), t_opt=round(t_opt, 4),
                 optimal_length=round(l_opt, 4), outcome=outcome,
                 reason=nav.reason if outcome == "nav_failed" else "",
-                replans=nav.replans, recoveries=nav.recoveries)
+                replans=nav.replans, recoveries=nav.recoveries,
+                lidar_returns_per_scan=round(returns / scans, 1) if scans else 0.0)
 
 
 class _Baseline:

@@ -61,6 +61,9 @@ def summarize_barn(rows: list[dict[str, Any]]) -> dict[str, Any]:
                              default=math.nan),
         "wall_s_per_run": {"mean": sum(wall) / len(wall) if wall else math.nan, "max": max(wall, default=math.nan)},
         "cpu_s_per_run": {"mean": sum(cpu) / len(cpu) if cpu else math.nan, "max": max(cpu, default=math.nan)},
+        "warnings": [f"world {r['world_id']}: the robot's lidar saw no obstacle in the whole run (mounted above "
+                     "them?) — with map_source sensors it navigates blind" for r in rows
+                     if r.get("lidar_returns_per_scan") == 0.0 and r.get("map_source") == "sensors"],
     }
 
 

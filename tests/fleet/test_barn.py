@@ -98,6 +98,7 @@ def test_barn_run_scores_a_hand_written_world(tmp_path):
                 "min_clearance", "barn_metric"):
         assert key in r
     assert r["success"] and not r["collided"] and r["distance_to_goal"] <= 1.0
+    assert r["lidar_returns_per_scan"] > 0 and not summary["warnings"]  # the Jackal's lidar sees the cylinders
     l_opt = optimal_length(np.array(path))
     assert r["t_opt"] == pytest.approx(l_opt / 2.0, abs=1e-4)
     assert r["barn_metric"] == pytest.approx(r["t_opt"] / min(max(r["time_s"], 2 * r["t_opt"]), 8 * r["t_opt"]),

@@ -9,6 +9,7 @@ from pydantic import ValidationError
 from fleet import validation
 from fleet.core import ServiceCore
 from planning import LayeredCostmap, OccupancyGrid, PlanResult, get_planner, rasterize_world
+from planning.grid import UNKNOWN_CELL
 from planning.navigator import Navigator, NavigatorConfig, make_navigator
 from sim import FleetError, Pose2D
 from sim.errors import ErrorCode
@@ -21,6 +22,8 @@ if TYPE_CHECKING:
 class NavOps(ServiceCore):
     """Mixed into FleetService."""
 
+    _nav_cover: list[tuple[float, float]]  # goals the planning map must cover (it grows for them)
+
     def static_grid(self) -> OccupancyGrid:
         """The world rasterised at robot height once per world (shared by every robot's costmap)."""
         if self._static_grid is None:
@@ -30,23 +33,38 @@ class NavOps(ServiceCore):
         return self._static_grid
 
     def map_bounds(self) -> tuple[float, float, float, float]:
-        """The planning map's extent: the world's obstacles (+1 m), at least 20 m × 20 m about the origin, and
-        every robot's position ± 5 m, so an open world (e.g. empty with one wall) still has room to plan."""
+        """The planning map's extent: the world's obstacles (+1 m), at least 20 m × 20 m about the origin, every
+        robot's position ± 5 m and every goal given so far ± 5 m (no artificial bounds: the map grows)."""
         xs0, ys0, xs1, ys1 = self.world.description.bounds(margin=1.0)
         lo = [min(xs0, -10.0), min(ys0, -10.0)]
         hi = [max(xs1, 10.0), max(ys1, 10.0)]
-        for name in self.world.robot_names():
-            pose = self.world.robot_pose(name)
-            lo = [min(lo[0], pose.x - 5.0), min(lo[1], pose.y - 5.0)]
-            hi = [max(hi[0], pose.x + 5.0), max(hi[1], pose.y + 5.0)]
+        spots = [(p.x, p.y) for p in map(self.world.robot_pose, self.world.robot_names())]
+        for x, y in spots + getattr(self, "_nav_cover", []):
+            lo = [min(lo[0], x - 5.0), min(lo[1], y - 5.0)]
+            hi = [max(hi[0], x + 5.0), max(hi[1], y + 5.0)]
         return (lo[0], lo[1], hi[0], hi[1])
+
+    def cover(self, x: float, y: float) -> None:
+        """Grow the planning map (and drop the costmaps built on the old one) when (x, y) ± 1 m is outside it."""
+        if not hasattr(self, "_nav_cover"):
+            self._nav_cover = []
+        self._nav_cover.append((float(x), float(y)))
+        if self._static_grid is not None:
+            x0, y0, x1, y1 = self._static_grid.bounds
+            if not (x0 + 1.0 <= x <= x1 - 1.0 and y0 + 1.0 <= y <= y1 - 1.0):
+                self._static_grid = None
+                self._costmaps.clear()
 
     def costmap_for(self, robot: str) -> LayeredCostmap:
         """Each robot's own costmap (its obstacle layer sees what its lidar sees), keep-outs shared."""
         if robot not in self._costmaps:
             spec = self.world.robot_spec(robot)
-            cm = LayeredCostmap(self.static_grid(), robot_radius=spec.footprint_radius,
-                                sensor_offset=(spec.mast.x_offset, 0.0))
+            source = self.nav_config().map_source
+            grid = self.static_grid()
+            if source == "sensors":  # a robot that must not read the world file: everything unknown at first
+                grid = OccupancyGrid.empty(grid.bounds, grid.resolution, fill=UNKNOWN_CELL)
+            cm = LayeredCostmap(grid, robot_radius=spec.footprint_radius, sensor_offset=(spec.mast.x_offset, 0.0),
+                                allow_unknown=source == "sensors")
             for poly in self._keepouts:
                 cm.add_keepout(poly)
             self._costmaps[robot] = cm
@@ -82,6 +100,11 @@ class NavOps(ServiceCore):
                                  "wait for its lease to lapse or ask that client to release it")
             if self.safety.manual.get(robot) is not None:  # a new task takes over from manual driving
                 self.safety.manual.pop(robot)
+            goal = (params or {}).get("goal")
+            if isinstance(goal, Pose2D):
+                self.cover(goal.x, goal.y)
+            elif isinstance(goal, dict) and all(isinstance(goal.get(k), int | float) for k in ("x", "y")):
+                self.cover(float(goal["x"]), float(goal["y"]))
             return self.tasks.submit(type_name, robot, params, priority=priority).to_dict()
 
         return self.call(do)
@@ -113,6 +136,7 @@ class NavOps(ServiceCore):
 
         def do() -> PlanResult:
             s = start or self.world.robot_pose(robot)
+            self.cover(goal.x, goal.y)
             cfg = self.nav_config()
             spec = dict(cfg.planner) if planner is None else {"type": planner}
             return get_planner(**spec).plan(s, goal, self.costmap_for(robot))

@@ -73,3 +73,7 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
+
+from fleetnav.cmd_barn import barn_app  # noqa: E402  (barn run: the BARN benchmark suite)
+
+app.add_typer(barn_app, name="barn")

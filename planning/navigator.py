@@ -8,7 +8,7 @@ approach to the route (and detours back onto it after a replan) and tracks the r
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -49,6 +49,11 @@ class NavigatorConfig(StrictModel):
     max_recoveries: int = Field(4, ge=0)
     timeout_s: float | None = Field(None, gt=0)
     replan_period_s: float | None = Field(None, gt=0, description="null: replan only on events")
+    map_source: Literal["prior", "sensors", "both"] = Field(
+        "prior", description="prior: the world's obstacles; sensors: only what the lidar saw (unknown space "
+        "traversable); both: the prior map corrected by the lidar")
+    sense_period_s: float = Field(0.2, gt=0, description="with sensors/both: fold the scan into the costmap "
+                                  "this often, and replan when the path ahead became blocked, s")
 
 
 def make_navigator(config: NavigatorConfig, *, costmap: Costmap, spec: RobotSpec) -> Navigator:
@@ -86,7 +91,8 @@ class Navigator:
                  max_w: float, max_lat_accel: float = 0.5, smooth_radius: float = 0.5, goal_tolerance: float = 0.15,
                  yaw_tolerance: float = 0.1, off_path_distance: float = 0.5, progress_timeout_s: float = 10.0,
                  min_progress: float = 0.1, max_recoveries: int = 4, timeout_s: float | None = None,
-                 replan_period_s: float | None = None) -> None:
+                 replan_period_s: float | None = None, map_source: str = "prior",
+                 sense_period_s: float = 0.2) -> None:
         self.planner, self.costmap, self.controller = planner, costmap, controller
         self.safety, self.recovery = safety, recovery
         self.max_v, self.max_a, self.max_w, self.max_lat = max_v, max_a, max_w, max_lat_accel
@@ -94,6 +100,8 @@ class Navigator:
         self.goal_tol, self.yaw_tol, self.off_path = goal_tolerance, yaw_tolerance, off_path_distance
         self.progress_timeout, self.min_progress = progress_timeout_s, min_progress
         self.max_recoveries, self.timeout, self.replan_period = max_recoveries, timeout_s, replan_period_s
+        self.sensing = map_source != "prior"  # the costmap learns from every scan, not only at replans
+        self.sense_period, self._t_sensed = sense_period_s, -math.inf
         self.plans: list[PlanResult] = []  # every plan made for the current goal (for diagnostics)
         self.events: list[tuple[float, str]] = []  # (sim time, why) of every replan and recovery
         self._start(0.0, None, None, False)
@@ -130,6 +138,8 @@ class Navigator:
         # 2. a running recovery owns the wheels until it is done
         if self._state is NavState.RECOVERING:
             return self._recover(now, pose)
+        if self.sensing and scan is not None and now - self._t_sensed >= self.sense_period:
+            self._sense(now, pose, scan)
         # 3. plan or replan when something asked for it (start, blocked, off path, stalled, period)
         if self._pending is not None and not self._replan(now, pose):
             return STOP
@@ -236,6 +246,16 @@ class Navigator:
         if self.smooth_radius > 0:  # shortcut + collision-checked corner arcs: faster, smoother tracking
             return smooth_path(plan.path, self.costmap, max_radius=self.smooth_radius)
         return plan.path
+
+    def _sense(self, now: float, pose: Pose2D, scan: LidarScan) -> None:
+        """Mark and clear the costmap from this scan; a path that now crosses an obstacle is replanned."""
+        self._t_sensed = now
+        self.costmap.update_from_scan(scan, pose)
+        if self._ref is not None and self._pending is None and self._state is NavState.TRACKING:
+            i = int(np.searchsorted(self._ref.s, self._ref_s))
+            ahead = np.column_stack([self._ref.x[i:], self._ref.y[i:]])
+            if len(ahead) and not self.costmap.is_free_many(ahead).all():
+                self._pending = "a newly seen obstacle blocks the path"
 
     def _watch(self, now: float, dt: float, twist: tuple[float, float], out: ControlOutput) -> None:
         """Progress bookkeeping, and the reasons to replan: off the path, stalled, periodic."""

@@ -35,7 +35,8 @@ def check_endpoint(costmap: Costmap, pose: Pose2D, what: str) -> tuple[int, int]
         clearance = costmap.clearance(pose.x, pose.y)
         raise FleetError(ErrorCode.PLANNING_FAILED,
                          f"{what} ({pose.x:.2f}, {pose.y:.2f}) is in collision: {clearance:.2f} m from the "
-                         f"nearest obstacle, robot radius {costmap.robot_radius:.2f} m",
+                         f"nearest obstacle, robot radius {costmap.robot_radius:.2f} m + padding "
+                         f"{getattr(costmap, 'padding', 0.0):.3f} m",
                          f"move the {what} into free space (or clear the costmap if the obstacle is stale)")
     return cell_of(costmap, pose.x, pose.y)
 
@@ -54,9 +55,10 @@ def check_reachable(costmap: Costmap, s: tuple[int, int], g: tuple[int, int]) ->
     if labels[s] != labels[g]:
         raise FleetError(ErrorCode.PLANNING_FAILED,
                          "no path: the goal is enclosed (not connected to the start through free space "
-                         f"for a robot of radius {costmap.robot_radius:.2f} m)",
+                         f"for a robot of radius {costmap.robot_radius:.2f} m + padding "
+                         f"{getattr(costmap, 'padding', 0.0):.3f} m)",
                          "pick a goal in the start's region, remove the blocking obstacle or keep-out zone, "
-                         "or clear the costmap")
+                         "clear the costmap, or plan for the exact footprint (planning.navfn.plan_path)")
 
 
 def path_length(path: np.ndarray) -> float:

@@ -275,17 +275,18 @@ class SlamOps(ServiceCore):
     def run_slam_on_log(self, path: str, out: str | None = None, odometry: str = "odom_increments",
                         config: dict[str, Any] | None = None) -> dict[str, Any]:
         """Run `slam.log_run` on a CARMEN (.log/.log.gz) or MCAP log inside the workspace; outputs go to `out`
-        (default: `<log name>_slam/` next to the log). Independent of the sim: call it off the sim thread."""
+        (default: `slam/<log name>/` in the outputs area). Independent of the sim: call it off the sim thread."""
         from slam.log_config import LogSlamConfig
         from slam.log_run import run_log
 
-        src = self.workspace.resolve(path, write=False)
-        if not src.is_file():
-            raise FleetError(ErrorCode.NOT_FOUND, f"no log file '{path}'", "give a path inside the workspace")
+        src = self.workspace.read(path, "log file")
         stem = src.name.split(".")[0]
-        dst = self.workspace.resolve(out if out else str(src.parent / f"{stem}_slam"), write=True)
         cfg = _validated(LogSlamConfig, {**(config or {}), "odometry": odometry}, "log slam")
-        report = run_log(src, dst, cfg)
+        dst = self.workspace.write_folder(out if out else f"slam/{stem}")
+        try:
+            report = run_log(src, dst, cfg)
+        finally:
+            self.workspace.remember_tree(dst)
         report["out"] = str(dst)
         report["loop_closures"]["list"] = report["loop_closures"]["list"][-20:]  # the latest; all in report.json
         return report

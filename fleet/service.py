@@ -48,7 +48,7 @@ MUTATING = frozenset({
     "spawn_fleet", "fleet_command", "start_behaviour", "stop_behaviour", "set_avoidance", "configure_deadlocks",
     "start_slam", "stop_slam", "save_slam_map", "load_slam_map", "localize", "stop_localization",
     "start_calibration", "finish_calibration", "start_fusion", "stop_fusion", "add_marker", "clear_markers",
-    "highlight_model", "network_markers", "restart"})
+    "highlight_model", "network_markers", "restart", "run_slam_on_log"})
 
 
 def _writable(name: str, fn: Callable[..., Any]) -> Callable[..., Any]:

@@ -151,6 +151,25 @@ class Workspace:
         self._remember(full)
         return full
 
+    def write_folder(self, path: str | Path) -> Path:
+        """A folder in the outputs area that a tool fills with several files: refused if it holds a file this
+        server did not write (the same rule as `write_path`, applied to what is inside)."""
+        full = self.write_path(path)
+        if full.is_dir():
+            written = self.written()
+            foreign = sorted(f for f in full.rglob("*") if f.is_file() and f.resolve() not in written)
+            if foreign:
+                raise FleetError(ErrorCode.PATH_NOT_ALLOWED, f"'{path}' holds files this server did not write "
+                                 f"({foreign[0].name}{', ...' if len(foreign) > 1 else ''})", "pick another folder")
+        full.mkdir(parents=True, exist_ok=True)
+        return full
+
+    def remember_tree(self, folder: Path) -> None:
+        """Record every file under `folder` as written by this server (after a tool filled it)."""
+        for f in folder.rglob("*"):
+            if f.is_file():
+                self._remember(f.resolve())
+
     def permit_overwrite(self, path: str | Path) -> None:
         """The caller said `overwrite: true`: the next write of `path` may replace an existing file."""
         p = Path(_checked(path))

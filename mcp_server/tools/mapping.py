@@ -115,9 +115,8 @@ def register(tool: ToolRegistrar) -> None:
     async def run_slam_on_log(
         ctx: Context,
         path: str = Field(description="CARMEN .log / .log.gz or .mcap recording (LaserScan) inside the workspace"),
-        out: str | None = Field(None, description="output folder inside the workspace (default: <log>_slam/ next "
-                                "to the log): map.pgm/yaml/png, trajectory.tum, trajectory_odom.tum, graph.g2o, "
-                                "report.json"),
+        out: str | None = Field(None, description="output folder in the outputs area (default: slam/<log name>): "
+                                "map.pgm/yaml/png, trajectory.tum, trajectory_odom.tum, graph.g2o, report.json"),
         odometry: Literal["odom_increments", "laser_pose", "none"] = Field(
             "odom_increments", description="CARMEN odometry: raw ODOM increments (honest default), the laser "
             "lines' poses (corrected reference poses in Radish logs: not an honest input), or none"),

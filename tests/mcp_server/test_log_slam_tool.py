@@ -23,6 +23,10 @@ async def test_run_slam_on_log(client, workspace: Path) -> None:
     r = meta["result"]
     assert max(img.shape[:2]) <= 400 and r["scans"] == 60
     assert r["slam"]["ate_rmse"] < 0.05 < r["odometry_only"]["ate_rmse"]  # against the log's reference poses
-    assert (workspace / "logs" / "lap_slam" / "trajectory.tum").is_file()
-    assert "outside the workspace" in await err(client, "run_slam_on_log", {"path": "/etc/passwd"})
+    assert (workspace / "outputs" / "slam" / "lap" / "trajectory.tum").is_file()
+    assert "no readable log file" in await err(client, "run_slam_on_log", {"path": "/etc/passwd"})
+    (workspace / "outputs" / "mine").mkdir()
+    (workspace / "outputs" / "mine" / "notes.txt").write_text("not the server's")
+    assert "did not write" in await err(client, "run_slam_on_log", {"path": "logs/lap.log", "out": "mine"})
+    assert (workspace / "outputs" / "mine" / "notes.txt").read_text() == "not the server's"
     assert "frontend" in await err(client, "run_slam_on_log", {"path": "logs/lap.log", "config": {"bogus": 1}})

@@ -15,8 +15,25 @@ import typer
 EXIT_FAILED, EXIT_INPUT, EXIT_CANCELED = 1, 2, 130
 
 
+def mission_file(name_or_path: str) -> Path:
+    """A mission YAML path, or the name of a shipped mission (configs/missions/<name>.yaml)."""
+    from sim.errors import ErrorCode, FleetError
+    from sim.resources import shipped
+
+    p = Path(name_or_path)
+    if p.is_file():
+        return p
+    cand = shipped("missions", f"{name_or_path}.yaml")
+    if p.suffix not in (".yaml", ".yml") and cand.is_file():
+        return cand
+    known = sorted(f.stem for f in shipped("missions").glob("*.yaml"))
+    raise FleetError(ErrorCode.NOT_FOUND, f"no mission file '{name_or_path}'",
+                     f"give a mission YAML file, or a shipped mission: {', '.join(known)}")
+
+
 def run(
-    files: list[Path] = typer.Argument(..., help="mission YAML files", exists=True, dir_okay=False),
+    files: list[str] = typer.Argument(..., help="mission YAML files, or names of shipped missions "
+                                      "(e.g. arena_navigation)"),
     jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,
                                     help="local: parallel worker processes (default 1); ray: CPUs of a Ray "
                                          "instance started here (default all)"),
@@ -41,7 +58,12 @@ def run(
     from fleet.missions.batch import RunRequest, plan_runs, run_batch, run_file, summarize, write_batch_outputs
     from sim.errors import FleetError
 
-    reqs = plan_runs([str(f) for f in files], out, seed, repeat, record=not no_record, time_limit=time_limit)
+    try:
+        paths = [str(mission_file(f)) for f in files]
+    except FleetError as exc:
+        typer.echo(f"error: {exc.message}" + (f" ({exc.hint})" if exc.hint else ""), err=True)
+        raise typer.Exit(EXIT_INPUT) from None
+    reqs = plan_runs(paths, out, seed, repeat, record=not no_record, time_limit=time_limit)
     if live:
         if len(reqs) != 1:
             raise typer.BadParameter("--live shows one run: give one file without --repeat", param_hint="--live")

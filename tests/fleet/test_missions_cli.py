@@ -83,3 +83,15 @@ def test_pytest_plugin_runs_missions_as_tests(tmp_path):
     cases = ET.parse(tmp_path / "j.xml").getroot().findall(".//testcase")
     props = {p.get("name"): p.get("value") or "" for c in cases for p in c.findall(".//property")}
     assert props["hops"].startswith("pass") and props["too_fast"].startswith("FAIL")
+
+
+def test_a_missing_mission_is_one_line_and_exit_2_and_shipped_names_resolve(tmp_path):
+    from fleetnav.cmd_missions import mission_file
+    from sim.resources import shipped
+
+    res = runner.invoke(app, ["run", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "no mission file" in lines[0] and "arena_navigation" in lines[0]
+    assert mission_file("arena_navigation") == shipped("missions", "arena_navigation.yaml")
+    assert mission_file(str(QUICK)) == QUICK

@@ -30,6 +30,7 @@ from sim.world_types import CommandResult, ModelState, SensorFault
 MAX_RAYS_PER_CALL = 16_000  # rayTestBatch returns nothing at exactly 16,384 rays and raises above it
 log = logging.getLogger("fleetnav.sim")
 RAYCASTERS = ("embree", "pybullet")
+LIDAR_PHASES = ("spread", "aligned")
 MAX_SPEED = 50.0  # m/s: any body faster than this is a physics explosion, not motion
 Reading = LidarScan | ImuReading | OdometryReading | ContactReading
 
@@ -39,13 +40,19 @@ class World:
 
     def __init__(self, *, physics_hz: float = 100.0, seed: int = 0, gui: bool = False,
                  fidelity: Fidelity = "kinematic", gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
-                 ground: bool = True, name: str = "world", raycast: str = "embree") -> None:
+                 ground: bool = True, name: str = "world", raycast: str = "embree",
+                 lidar_phases: str = "spread") -> None:
         if not (1.0 <= physics_hz <= 10_000.0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"physics_hz must be in [1, 10000], got {physics_hz}")
         if fidelity not in ("kinematic", "dynamic"):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown fidelity '{fidelity}'",
                              "use 'kinematic' or 'dynamic'")
+        if lidar_phases not in LIDAR_PHASES:
+            raise unknown_name("lidar phase policy", lidar_phases, LIDAR_PHASES, ErrorCode.INVALID_ARGUMENT)
         self.name = name
+        # "spread": robots' lidars are cast in different physics steps of their period, so no one step casts the
+        # whole fleet's (sim/robot_spawn.py lidar_phase); "aligned": every first scan one period after spawn.
+        self.lidar_phases = lidar_phases
         self._embree: Any = None
         self.set_raycaster(raycast)
         self.client = p.connect(p.GUI if gui else p.DIRECT)

@@ -180,19 +180,24 @@ class World:
     def set_cmd_vel(self, name: str, v: float, w: float) -> CommandResult:
         """Command a body twist; it is clamped to the robot's velocity limits (and then rate-limited by its
         acceleration limits as it is applied). The result says what was applied and why."""
-        i = self._row(name)
+        # the hot call of every driver: one dict lookup (an unknown name raises UNKNOWN_ROBOT in _row)
+        i = self.table._index.get(name)
+        if i is None:
+            i = self._row(name)
         if not (math.isfinite(v) and math.isfinite(w)):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"velocity must be finite, got v={v}, w={w}")
         f = self.table.f
-        max_v, max_w = float(f["max_v"][i]), float(f["max_w"][i])
+        max_v, max_w = f["max_v"].item(i), f["max_w"].item(i)
         av, aw = max(-max_v, min(max_v, v)), max(-max_w, min(max_w, w))
+        f["cmd_v"][i], f["cmd_w"][i] = av, aw
+        if av == v and aw == w:
+            return CommandResult(name, v, w, av, aw, False, "", self._time)
         reasons = []
         if av != v:
             reasons.append(f"linear {v:.3g} clamped to ±{max_v:.3g} m/s")
         if aw != w:
             reasons.append(f"angular {w:.3g} clamped to ±{max_w:.3g} rad/s")
-        f["cmd_v"][i], f["cmd_w"][i] = av, aw
-        return CommandResult(name, v, w, av, aw, bool(reasons), "; ".join(reasons), self._time)
+        return CommandResult(name, v, w, av, aw, True, "; ".join(reasons), self._time)
 
     def emergency_stop(self, name: str) -> None:
         """Brake now, bypassing the acceleration ramp: the command and the drive setpoint drop to zero

@@ -17,7 +17,7 @@ rayTestBatch (whole step counted); 100 robots × 360 beams at 10 Hz ≥ 5× real
 `--raycast` adds the ray casters alone on the same recorded lidar rays (_raycast_bench.py), alternating.
 
 Run: .venv/bin/python benchmarks/sim_throughput.py [--quick] [--json out.json] [--peer-robot box|urdf]
-     [--no-peer | --peer-only] [--raycaster embree|pybullet] [--raycast [--raycast-only]].
+     [--no-peer | --peer-only] [--raycaster embree|pybullet] [--raycast [--raycast-only]] [--no-lidar].
 Results and what each side does: docs/benchmarks-sim.md.
 """
 
@@ -161,6 +161,7 @@ def main() -> None:
     ap.add_argument("--peer-only", action="store_true", help="run only pybullet-fleet (e.g. with --peer-robot urdf)")
     ap.add_argument("--robots", type=int, nargs="+", help="fleet sizes to run (default 1 10 100 500 1000)")
     ap.add_argument("--drive", choices=("kinematic", "dynamic"), help="run only this drive model")
+    ap.add_argument("--no-lidar", action="store_true", help="only the rows without lidar (e.g. the kinematic target)")
     ap.add_argument("--raycaster", choices=("embree", "pybullet"), default="embree",
                     help="the World's ray caster for the lidar rows (default embree)")
     ap.add_argument("--raycast", action="store_true", help="also compare the ray casters alone on the same rays")
@@ -180,7 +181,8 @@ def main() -> None:
         return
     if args.peer_only:
         peer = peer_run(args, counts[-1], peer_steps, console)
-    for cfg in [] if args.peer_only else [c for c in configs(counts) if args.drive in (None, c.drive)]:
+    for cfg in [] if args.peer_only else [c for c in configs(counts) if args.drive in (None, c.drive)
+                                          and not (args.no_lidar and c.beams is not None)]:
         headline = cfg.drive == "kinematic" and cfg.beams is None and cfg.robots == counts[-1]
         b = Budget(peer_steps, peer_steps, 0.0) if headline else budget
         results.append(run_config(cfg, make_scene(cfg.robots), b))

@@ -127,7 +127,7 @@ def read_json(p: subprocess.Popen[str]) -> dict[str, Any]:
 # ---- the server side -----------------------------------------------------------------------------------------
 
 
-def make_service(n: int, beams: int, tmp: Path) -> Any:
+def make_service(n: int, beams: int, tmp: Path, lidar_phases: str = "spread") -> Any:
     import yaml
 
     from fleet import FleetConfig, FleetService
@@ -141,6 +141,7 @@ def make_service(n: int, beams: int, tmp: Path) -> Any:
     half = SPACING * side / 2 + 2
     svc = FleetService(FleetConfig(world="empty", seed=0, robot_model=str(robot), avoidance={"type": "none"},
                                    safety={"geofence": (-half, -half, half, half)}))
+    svc.world.lidar_phases = lidar_phases  # before the spawns: they pick each robot's lidar phase
     for i in range(n):
         x, y = SPACING * (i % side - (side - 1) / 2), SPACING * (i // side - (side - 1) / 2)
         svc.spawn_robot(f"r{i:03d}", Pose2D(x, y, 0.0))
@@ -284,6 +285,10 @@ def main() -> None:
                     help="also print the per-stage latency (send → receive → envelope → applied) and the issue-17 "
                          "targets (world ≥ 0.98× real time, command→applied p99 ≤ 15 ms, 0 dropped)")
     ap.add_argument("--json", type=Path, help="write every figure to this JSON file")
+    ap.add_argument("--lidar-phases", default="spread",
+                    help="comma-separated lidar phase policies, one whole measurement each, in this order: 'spread' "
+                         "(each physics step casts ~1/10 of the fleet's lidars) and/or 'aligned' (all in one step, "
+                         "the behaviour before issue 17b)")
     a = ap.parse_args()
     if a.role == "agents":
         return role_agents(a.connect, a.robots.split(","), a.per_agent, float(a.duration), a.tag)
@@ -292,21 +297,25 @@ def main() -> None:
     n = int(a.robots) if a.robots else (20 if a.quick else 100)
     duration = a.duration or (5.0 if a.quick else 20.0)
     procs = 1 if a.quick else 2
-    with tempfile.TemporaryDirectory() as tmp:
-        svc = make_service(n, a.beams, Path(tmp))
-        names = list(svc.snapshot.names)
-        svc.start("realtime", 1.0)
-        try:
-            base = baseline(svc, names, a.per_agent, duration)
-            zen = over_zenoh(svc, names, a.per_agent, duration, procs)
-        finally:
-            svc.close()
-    report(n, a.beams, a.per_agent, duration, procs, base, zen)
-    if a.stages:
-        report_stages(base, zen)
+    runs: dict[str, Any] = {}
+    for phases in a.lidar_phases.split(","):
+        with tempfile.TemporaryDirectory() as tmp:
+            svc = make_service(n, a.beams, Path(tmp), phases)
+            names = list(svc.snapshot.names)
+            svc.start("realtime", 1.0)
+            try:
+                base = baseline(svc, names, a.per_agent, duration)
+                zen = over_zenoh(svc, names, a.per_agent, duration, procs)
+            finally:
+                svc.close()
+        print(f"\n==== lidar phases: {phases}")
+        report(n, a.beams, a.per_agent, duration, procs, base, zen)
+        if a.stages:
+            report_stages(base, zen)
+        runs[phases] = {"baseline": base, "zenoh": zen, "load": os.getloadavg()}
     if a.json:
-        a.json.write_text(json.dumps({"robots": n, "beams": a.beams, "baseline": base, "zenoh": zen,
-                                      "load": os.getloadavg()}, indent=1, default=str), encoding="utf-8")
+        a.json.write_text(json.dumps({"robots": n, "beams": a.beams, "runs": runs}, indent=1, default=str),
+                          encoding="utf-8")
 
 
 def report_stages(b: dict[str, Any], z: dict[str, Any]) -> None:

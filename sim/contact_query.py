@@ -34,8 +34,9 @@ def candidate_pairs(world: World, rows: np.ndarray) -> list[tuple[int, int]]:
     pairs: list[tuple[int, int]] = []
     in_rows = np.zeros(len(t), dtype=bool)
     in_rows[rows] = True
+    tree = cKDTree(xy)
     if len(t) > 1:
-        ab = cKDTree(xy).query_pairs(2.0 * float(r.max()) + 1e-3, output_type="ndarray")
+        ab = tree.query_pairs(2.0 * float(r.max()) + 1e-3, output_type="ndarray")
         if len(ab):
             a, b = ab[:, 0], ab[:, 1]
             near = np.hypot(xy[a, 0] - xy[b, 0], xy[a, 1] - xy[b, 1]) <= r[a] + r[b] + 1e-3
@@ -48,13 +49,24 @@ def candidate_pairs(world: World, rows: np.ndarray) -> list[tuple[int, int]]:
     if uids.size:
         tall = (lo[:, 2] <= ROBOT_TOP) & (hi[:, 2] >= 0.0)
         uids, lo, hi = uids[tall], lo[tall], hi[tall]
-        # Every (robot, obstacle box) pair at once: one vectorised box-versus-circle-bound test.
         if uids.size:
-            rx, ry, rr = xy[rows, 0:1], xy[rows, 1:2], r[rows][:, None]
-            hit = ((rx + rr >= lo[None, :, 0]) & (rx - rr <= hi[None, :, 0])
-                   & (ry + rr >= lo[None, :, 1]) & (ry - rr <= hi[None, :, 1]))
-            k, j = np.nonzero(hit)
-            pairs += list(zip(body[rows[k]].tolist(), uids[j].tolist(), strict=True))
+            # Robots near each obstacle box from the robots' k-d tree (the ball about the box's centre through
+            # the corners of the box grown by the largest footprint radius), then the exact box-versus-circle
+            # test on those: no robots × obstacles matrix each step.
+            centre, half = (lo[:, :2] + hi[:, :2]) / 2, (hi[:, :2] - lo[:, :2]) / 2
+            grown = half + float(r.max()) + 1e-9
+            near_box = tree.query_ball_point(centre, np.hypot(grown[:, 0], grown[:, 1]))
+            k = np.fromiter((i for ks in near_box for i in ks), dtype=np.int64)
+            j = np.repeat(np.arange(uids.size), [len(ks) for ks in near_box])
+            k, j = k[in_rows[k]], j[in_rows[k]]
+            rx, ry, rr = xy[k, 0], xy[k, 1], r[k]
+            hit = ((rx + rr >= lo[j, 0]) & (rx - rr <= hi[j, 0]) & (ry + rr >= lo[j, 1]) & (ry - rr <= hi[j, 1]))
+            k, j = k[hit], j[hit]
+            pos = np.zeros(len(t), dtype=np.int64)
+            pos[rows] = np.arange(rows.size)
+            order = np.lexsort((j, pos[k]))  # as a rows × obstacles scan would list them (same contacts order)
+            k, j = k[order], j[order]
+            pairs += list(zip(body[k].tolist(), uids[j].tolist(), strict=True))
     return pairs
 
 

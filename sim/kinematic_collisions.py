@@ -33,8 +33,9 @@ def teleport(world: World, rows: np.ndarray) -> None:
     half = 0.5 * f["yaw"][rows]
     args = zip(world.table.body[rows].tolist(), f["x"][rows].tolist(), f["y"][rows].tolist(),
                np.sin(half).tolist(), np.cos(half).tolist(), strict=True)
-    for uid, x, y, qz, qw in args:
-        p.resetBasePositionAndOrientation(uid, (x, y, 0.0), (0.0, 0.0, qz, qw), physicsClientId=c)
+    reset = p.resetBasePositionAndOrientation
+    for uid, x, y, qz, qw in args:  # the client id positional: no keyword parsing in the fleet's hottest loop
+        reset(uid, (x, y, 0.0), (0.0, 0.0, qz, qw), c)
 
 
 def penetrating_contacts(world: World) -> list[tuple[int, int, tuple[float, float, float], float]]:
@@ -51,14 +52,17 @@ def resolve_kinematic_collisions(world: World, moved: np.ndarray,
     found with a conservative circle test in numpy and reverted too, until no reverted spot is contested."""
     t = world.table
     f = t.f
-    kin_rows = np.flatnonzero(t.b["kinematic"])
+    kin = t.b["kinematic"]
+    kin_rows = np.flatnonzero(kin)
     t.b["in_collision"][kin_rows] = False
-    for i in kin_rows:
-        world._contacts[t.names[i]] = ()
+    # Only robots in contact have an entry (latest_contacts reads a missing one as none): clearing the
+    # kinematic ones touches the few in contact, not every robot of the fleet.
+    for name in [n for n in world._contacts if kin[t.index(n)]]:
+        del world._contacts[name]
     if moved.size == 0:
         return moved
     teleport(world, moved)
-    row_of = {uid: i for i, uid in enumerate(t.body.tolist())}
+    row_of = t.row_of_uid
     is_moved = np.zeros(len(t), dtype=bool)
     is_moved[moved] = True
     contacts: dict[int, list[RawContact]] = {}
@@ -74,16 +78,14 @@ def resolve_kinematic_collisions(world: World, moved: np.ndarray,
     px[moved], py[moved], pyaw[moved] = previous
     reach = 2.0 * float(f["radius"][kin_rows].max()) if kin_rows.size else 0.0
     frontier = np.flatnonzero(reverted)
-    while frontier.size:
+    # Moved robots stay where they moved until reverted, so one k-d tree over them serves every round.
+    tree = cKDTree(np.column_stack([f["x"][moved], f["y"][moved]])) if frontier.size else None
+    while tree is not None and frontier.size:
         f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = px[frontier], py[frontier], pyaw[frontier]
         # Moved, not-yet-reverted robots now within two footprint radii of a reverted robot's old spot.
-        cand = np.flatnonzero(is_moved & ~reverted)
-        if not cand.size:
-            break
-        near = cKDTree(np.column_stack([f["x"][cand], f["y"][cand]])).query_ball_point(
-            np.column_stack([f["x"][frontier], f["y"][frontier]]), reach)
-        hit = np.unique(np.fromiter((k for ks in near for k in ks), dtype=np.int64))
-        frontier = cand[hit] if hit.size else hit
+        near = tree.query_ball_point(np.column_stack([f["x"][frontier], f["y"][frontier]]), reach)
+        hit = moved[np.unique(np.fromiter((k for ks in near for k in ks), dtype=np.int64))]
+        frontier = hit[~reverted[hit]]
         reverted[frontier] = True
     rows = np.flatnonzero(reverted)
     teleport(world, rows)

@@ -25,6 +25,8 @@ if TYPE_CHECKING:
 
 MAX_PASSES = 8  # continuations per ray (a ray crossing a proxy needs two)
 MERGE_FACES = 50_000  # static scenes up to this size are rebuilt with the robots each cast (one traversal)
+REACH_CELL = 1.0  # m: ray origins are binned in cells this size to find the robots the rays can reach
+MAX_REACH_TESTS = 100_000  # cells × robots above which robots are not culled
 STEP_M = 2e-5  # m: how far past a passed-through surface a continued ray starts (> float32 spacing at 100 m)
 
 
@@ -178,6 +180,8 @@ class EmbreeCaster:
         self._templates: dict[tuple[int, str], list[Shape]] = {}
         self._groups: dict[bytes, list[Shape]] = {}
         self._link_templates: dict[tuple[int, str], dict[int, list[Shape]]] = {}
+        self._upright: list[tuple[list[Shape], np.ndarray, float]] = []
+        self._upright_key: tuple[object, ...] | None = None
 
     def _mesh_table(self) -> dict[tuple[int, int], list[Mesh | None]]:
         out: dict[tuple[int, int], list[Mesh | None]] = {}
@@ -235,33 +239,52 @@ class EmbreeCaster:
             self._link_templates[key] = by_link
         return self._link_templates[key]
 
-    def _dynamic_scene(self, z_band: tuple[float, float]) -> list[_Geometry]:
+    def _upright_groups(self) -> list[tuple[list[Shape], np.ndarray, float]]:
+        """Kinematic robots grouped by shared shape set: (shapes, table rows, plan radius of the shapes about
+        the base), cached while the robots and their bodies stay the same (the per-cast work is then numpy)."""
+        w = self.world
+        t = w.table
+        key = (tuple(t.names), t.body.tobytes(), t.b["kinematic"].tobytes())
+        if key != self._upright_key:
+            groups: dict[int, tuple[list[Shape], list[int]]] = {}
+            for i in np.flatnonzero(t.b["kinematic"]).tolist():
+                name = t.names[i]
+                shapes = self._template(int(t.body[i]), f"robot:{name}:{id(w.specs[name])}")
+                groups.setdefault(id(shapes), (shapes, []))[1].append(i)
+            self._upright = [(shapes, np.asarray(rows, np.int64), max(
+                float(np.hypot(*(s.verts @ s.local[:2, :3].T + s.local[:2, 3]).T).max()) for s in shapes))
+                for shapes, rows in groups.values() if shapes]
+            self._upright_key = key
+        return self._upright
+
+    def _dynamic_scene(self, z_band: tuple[float, float], reach: tuple[np.ndarray, float] | None = None
+                       ) -> list[_Geometry]:
+        """The moving bodies as geometry. With `reach` (centres of the cells holding the ray origins, and the
+        farthest a ray can get from its cell's centre) kinematic robots no ray can reach are left out: a fleet
+        casting a few lidars per step (spread phases) builds only the robots around them."""
         w = self.world
         t, f = w.table, w.table.f
-        mats: list[np.ndarray] = []
-        owners: list[tuple[int, str]] = []
         kin = t.b["kinematic"]
+        upright: list[Part] = []
         # When the engine steps (a dynamic robot or model exists), gravity also acts on kinematic robots between
         # teleports, so their bodies are read from PyBullet like the rest; otherwise the table is the pose.
         physics = bool((~kin).any()) or w.models.has_dynamic_models()
         if len(t) and not physics:
-            c, s = np.cos(f["yaw"]), np.sin(f["yaw"])
-            m = np.zeros((len(t), 4, 4))
-            m[:, 0, 0], m[:, 0, 1], m[:, 1, 0], m[:, 1, 1] = c, -s, s, c
-            m[:, 2, 2] = m[:, 3, 3] = 1.0
-            m[:, 0, 3], m[:, 1, 3] = f["x"], f["y"]
-            for i in np.flatnonzero(kin):
-                name = t.names[i]
-                mats.append(m[i])
-                owners.append((int(t.body[i]), f"robot:{name}:{id(w.specs[name])}"))
+            for shapes, rows, plan_r in self._upright_groups():
+                if reach is not None:
+                    cells, far = reach
+                    dx = f["x"][rows][None, :] - cells[:, :1]
+                    dy = f["y"][rows][None, :] - cells[:, 1:]
+                    rows = rows[((dx * dx + dy * dy) <= (far + plan_r + 1e-3) ** 2).any(axis=0)]
+                    if rows.size == 0:
+                        continue
+                c, s = np.cos(f["yaw"][rows]), np.sin(f["yaw"][rows])
+                m = np.zeros((rows.size, 4, 4))
+                m[:, 0, 0], m[:, 0, 1], m[:, 1, 0], m[:, 1, 1] = c, -s, s, c
+                m[:, 2, 2] = m[:, 3, 3] = 1.0
+                m[:, 0, 3], m[:, 1, 3] = f["x"][rows], f["y"][rows]
+                upright.append((shapes, m, t.body[rows]))
         groups: dict[int, tuple[list[Shape], list[np.ndarray], list[int]]] = {}
-        for (uid, label), mat in zip(owners, mats, strict=True):
-            shapes = self._template(uid, label)
-            entry = groups.setdefault(id(shapes), (shapes, [], []))
-            entry[1].append(mat)
-            entry[2].append(uid)
-        upright = [(shapes, np.stack(ms), np.asarray(us)) for shapes, ms, us in groups.values() if shapes]
-        groups = {}
         # Bodies moved by physics (dynamic robots, movable models): each link at its pose now, since
         # joints (casters, wheels, hinges) move links relative to the base.
         moving = [(int(t.body[i]), f"robot:{t.names[i]}:{id(w.specs[t.names[i]])}")
@@ -276,11 +299,12 @@ class EmbreeCaster:
         moved = [(shapes, np.stack(ms), np.asarray(us)) for shapes, ms, us in groups.values() if shapes]
         return [g for g in (_build(upright, z_band), _build(moved)) if g is not None]
 
-    def _scenes(self, z_band: tuple[float, float]) -> list[_Geometry]:
+    def _scenes(self, z_band: tuple[float, float], reach: tuple[np.ndarray, float] | None = None
+                ) -> list[_Geometry]:
         """The scenes to cast against: a small static part is rebuilt with the moving bodies into one scene
         (one traversal per ray); a big one keeps its BVH from load and the moving bodies get their own."""
         static = self._static_scene()
-        moving = self._dynamic_scene(z_band)
+        moving = self._dynamic_scene(z_band, reach)
         if static is not None and static.scene is not None:
             return [static] + ([g] if (g := _commit(moving)) is not None else [])
         g = _commit([static, *moving])
@@ -291,7 +315,19 @@ class EmbreeCaster:
         self._templates.clear()
         self._groups.clear()
         self._link_templates.clear()
-        self._static_key = None
+        self._static_key = self._upright_key = None
+
+    def _reach(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """Where the rays can go, for culling robots: the centres of the REACH_CELL cells holding the ray
+        origins and the farthest any ray point gets from its cell's centre. None (no culling) when the rays
+        start all over the fleet (every lidar due at once): the distance test would cost more than it saves."""
+        ij = np.floor(o[:, :2] / REACH_CELL).astype(np.int64) + (1 << 30)
+        keys = np.unique(ij[:, 0] << 32 | ij[:, 1])  # one int per cell: a 1-D unique is ~10× a row-wise one
+        if keys.size * max(1, len(self.world.table)) > MAX_REACH_TESTS:
+            return None
+        cells = np.stack([keys >> 32, keys & 0xFFFFFFFF], axis=1) - (1 << 30)
+        far = float(np.sqrt(np.einsum("ij,ij->i", d, d).max())) + REACH_CELL * 0.7072
+        return (cells + 0.5) * REACH_CELL, far
 
     def cast(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         o = np.asarray(origins, np.float64).reshape(-1, 3)
@@ -301,7 +337,7 @@ class EmbreeCaster:
         if len(o) == 0:
             return np.ones(0), np.full(0, -1, np.int64)
         z = np.concatenate([o[:, 2], o[:, 2] + d[:, 2]])
-        for g in self._scenes((float(z.min()), float(z.max()))):
+        for g in self._scenes((float(z.min()), float(z.max())), self._reach(o, d)):
             t, u = _cast(g, o, d, np.minimum(best, 1.0))  # a later scene only looks closer than the hits so far
             nearer = t < best
             best[nearer], uids[nearer] = t[nearer], u[nearer]

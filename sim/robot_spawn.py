@@ -48,7 +48,8 @@ def spawn_robot(world: World, name: str, pose: Pose2D, spec: RobotSpec, fidelity
         "wheel_radius": spec.wheels.radius, "wheel_sep": spec.wheels.separation, "radius": spec.footprint_radius,
         "lidar_period": period(s.lidar.enabled, s.lidar.rate_hz), "imu_period": period(s.imu.enabled, s.imu.rate_hz),
         "odom_period": period(s.odometry.enabled, s.odometry.rate_hz),
-        "next_lidar": now + period(s.lidar.enabled, s.lidar.rate_hz),
+        "next_lidar": now + period(s.lidar.enabled, s.lidar.rate_hz)
+        - lidar_phase(world, period(s.lidar.enabled, s.lidar.rate_hz)),
         "next_imu": now + period(s.imu.enabled, s.imu.rate_hz),
         "next_odom": now + period(s.odometry.enabled, s.odometry.rate_hz),
         "imu_stamp": now, "odom_stamp": now,
@@ -69,6 +70,24 @@ def spawn_robot(world: World, name: str, pose: Pose2D, spec: RobotSpec, fidelity
         world.remove_robot(name)
         raise
     return name
+
+
+def lidar_phase(world: World, period: float) -> float:
+    """How much earlier than one period after spawn a new robot's first scan comes (a whole number of physics
+    steps, < one period), so the fleet's lidars are spread over the steps of a period instead of all being cast
+    in one step: the step joins the phase slot (due step mod steps-per-period) that the fewest lidars use now,
+    the earliest-ending slot on ties. It reads only the robot table, so the same spawns give the same phases
+    (and scans keep exactly their rate in sim time). `world.lidar_phases == "aligned"` keeps every first scan
+    one period after spawn (the old behaviour; benchmarks compare both)."""
+    n = int(period / world.dt + 1e-9)  # whole physics steps per lidar period
+    if period <= 0 or n < 2 or world.lidar_phases == "aligned":
+        return 0.0
+    f = world.table.f
+    has = f["lidar_period"] > 0
+    used = np.bincount(np.rint(f["next_lidar"][has] / world.dt).astype(np.int64) % n, minlength=n)
+    last = round((world.time + period) / world.dt)  # the step the first scan is due without a phase
+    k = np.arange(n)
+    return float(int(np.argmin(used[(last - k) % n])) * world.dt)
 
 
 def place_robot(world: World, row: int, pose: Pose2D, *, check_collision: bool) -> None:

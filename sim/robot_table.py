@@ -41,6 +41,7 @@ class RobotTable:
     b: dict[str, np.ndarray] = field(default_factory=lambda: {c: np.zeros(0, bool) for c in BOOL_COLUMNS})
     body: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     _index: dict[str, int] = field(default_factory=dict)
+    row_of_uid: dict[int, int] = field(default_factory=dict)  # PyBullet body uid → row (contacts name uids)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -76,6 +77,7 @@ class RobotTable:
 
     def _reindex(self) -> None:
         self._index = {n: i for i, n in enumerate(self.names)}
+        self.row_of_uid = {u: i for i, u in enumerate(self.body.tolist())}
 
     def copy_state(self) -> dict[str, np.ndarray]:
         """A deep copy of every column (for snapshots)."""

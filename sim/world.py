@@ -30,6 +30,7 @@ from sim.world_types import CommandResult, ModelState, SensorFault
 MAX_RAYS_PER_CALL = 16_000  # rayTestBatch returns nothing at exactly 16,384 rays and raises above it
 log = logging.getLogger("fleetnav.sim")
 RAYCASTERS = ("embree", "pybullet")
+LIDAR_PHASES = ("spread", "aligned")
 MAX_SPEED = 50.0  # m/s: any body faster than this is a physics explosion, not motion
 Reading = LidarScan | ImuReading | OdometryReading | ContactReading
 
@@ -39,13 +40,19 @@ class World:
 
     def __init__(self, *, physics_hz: float = 100.0, seed: int = 0, gui: bool = False,
                  fidelity: Fidelity = "kinematic", gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
-                 ground: bool = True, name: str = "world", raycast: str = "embree") -> None:
+                 ground: bool = True, name: str = "world", raycast: str = "embree",
+                 lidar_phases: str = "spread") -> None:
         if not (1.0 <= physics_hz <= 10_000.0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"physics_hz must be in [1, 10000], got {physics_hz}")
         if fidelity not in ("kinematic", "dynamic"):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown fidelity '{fidelity}'",
                              "use 'kinematic' or 'dynamic'")
+        if lidar_phases not in LIDAR_PHASES:
+            raise unknown_name("lidar phase policy", lidar_phases, LIDAR_PHASES, ErrorCode.INVALID_ARGUMENT)
         self.name = name
+        # "spread": robots' lidars are cast in different physics steps of their period, so no one step casts the
+        # whole fleet's (sim/robot_spawn.py lidar_phase); "aligned": every first scan one period after spawn.
+        self.lidar_phases = lidar_phases
         self._embree: Any = None
         self.set_raycaster(raycast)
         self.client = p.connect(p.GUI if gui else p.DIRECT)
@@ -173,19 +180,24 @@ class World:
     def set_cmd_vel(self, name: str, v: float, w: float) -> CommandResult:
         """Command a body twist; it is clamped to the robot's velocity limits (and then rate-limited by its
         acceleration limits as it is applied). The result says what was applied and why."""
-        i = self._row(name)
+        # the hot call of every driver: one dict lookup (an unknown name raises UNKNOWN_ROBOT in _row)
+        i = self.table._index.get(name)
+        if i is None:
+            i = self._row(name)
         if not (math.isfinite(v) and math.isfinite(w)):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"velocity must be finite, got v={v}, w={w}")
         f = self.table.f
-        max_v, max_w = float(f["max_v"][i]), float(f["max_w"][i])
+        max_v, max_w = f["max_v"].item(i), f["max_w"].item(i)
         av, aw = max(-max_v, min(max_v, v)), max(-max_w, min(max_w, w))
+        f["cmd_v"][i], f["cmd_w"][i] = av, aw
+        if av == v and aw == w:
+            return CommandResult(name, v, w, av, aw, False, "", self._time)
         reasons = []
         if av != v:
             reasons.append(f"linear {v:.3g} clamped to ±{max_v:.3g} m/s")
         if aw != w:
             reasons.append(f"angular {w:.3g} clamped to ±{max_w:.3g} rad/s")
-        f["cmd_v"][i], f["cmd_w"][i] = av, aw
-        return CommandResult(name, v, w, av, aw, bool(reasons), "; ".join(reasons), self._time)
+        return CommandResult(name, v, w, av, aw, True, "; ".join(reasons), self._time)
 
     def emergency_stop(self, name: str) -> None:
         """Brake now, bypassing the acceleration ramp: the command and the drive setpoint drop to zero

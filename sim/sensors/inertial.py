@@ -18,22 +18,24 @@ def sample_imu(t: RobotTable, due: np.ndarray, rng: np.random.Generator, now: fl
     n = int(due.sum())
     if n == 0:
         return
-    dt = np.maximum(now - f["imu_stamp"][due], 1e-9)
-    ax = (f["v"][due] - f["prev_v"][due]) / dt
-    ay = f["v"][due] * f["w"][due]
-    scale = f["imu_noise_scale"][due]
+    # Every robot due (the common case): slices are views, not ~50 boolean gathers of the whole fleet.
+    sel: np.ndarray | slice = slice(None) if n == due.size else due
+    dt = np.maximum(now - f["imu_stamp"][sel], 1e-9)
+    ax = (f["v"][sel] - f["prev_v"][sel]) / dt
+    ay = f["v"][sel] * f["w"][sel]
+    scale = f["imu_noise_scale"][sel]
     noise = rng.normal(0.0, 1.0, (n, 6))
-    an = (f["imu_accel_std"][due] * scale)[:, None] * noise[:, :3]
-    gn = (f["imu_gyro_std"][due] * scale)[:, None] * noise[:, 3:]
-    f["imu_ax"][due] = ax + f["imu_bax"][due] + an[:, 0]
-    f["imu_ay"][due] = ay + f["imu_bay"][due] + an[:, 1]
-    f["imu_az"][due] = GRAVITY + f["imu_baz"][due] + an[:, 2]
-    f["imu_gx"][due] = f["imu_bgx"][due] + gn[:, 0]
-    f["imu_gy"][due] = f["imu_bgy"][due] + gn[:, 1]
-    f["imu_gz"][due] = f["w"][due] + f["imu_bgz"][due] + gn[:, 2]
-    f["imu_stamp"][due] = now
-    f["prev_v"][due] = f["v"][due]
-    f["prev_w"][due] = f["w"][due]
+    an = (f["imu_accel_std"][sel] * scale)[:, None] * noise[:, :3]
+    gn = (f["imu_gyro_std"][sel] * scale)[:, None] * noise[:, 3:]
+    f["imu_ax"][sel] = ax + f["imu_bax"][sel] + an[:, 0]
+    f["imu_ay"][sel] = ay + f["imu_bay"][sel] + an[:, 1]
+    f["imu_az"][sel] = GRAVITY + f["imu_baz"][sel] + an[:, 2]
+    f["imu_gx"][sel] = f["imu_bgx"][sel] + gn[:, 0]
+    f["imu_gy"][sel] = f["imu_bgy"][sel] + gn[:, 1]
+    f["imu_gz"][sel] = f["w"][sel] + f["imu_bgz"][sel] + gn[:, 2]
+    f["imu_stamp"][sel] = now
+    f["prev_v"][sel] = f["v"][sel]
+    f["prev_w"][sel] = f["w"][sel]
 
 
 def sample_odometry(t: RobotTable, due: np.ndarray, rng: np.random.Generator, now: float) -> None:
@@ -43,24 +45,26 @@ def sample_odometry(t: RobotTable, due: np.ndarray, rng: np.random.Generator, no
     n = int(due.sum())
     if n == 0:
         return
-    dl = f["wheel_l"][due] - f["enc_l"][due]
-    dr = f["wheel_r"][due] - f["enc_r"][due]
-    slip = (f["odom_slip_std"][due] * f["odom_noise_scale"][due])[:, None] * rng.normal(0.0, 1.0, (n, 2))
-    r = f["wheel_radius"][due] * f["odom_radius_scale"][due]
+    # Every robot due (the common case): slices are views, not ~50 boolean gathers of the whole fleet.
+    sel: np.ndarray | slice = slice(None) if n == due.size else due
+    dl = f["wheel_l"][sel] - f["enc_l"][sel]
+    dr = f["wheel_r"][sel] - f["enc_r"][sel]
+    slip = (f["odom_slip_std"][sel] * f["odom_noise_scale"][sel])[:, None] * rng.normal(0.0, 1.0, (n, 2))
+    r = f["wheel_radius"][sel] * f["odom_radius_scale"][sel]
     sl = dl * (1.0 + slip[:, 0]) * r
     sr = dr * (1.0 + slip[:, 1]) * r
     ds = (sl + sr) / 2
-    dth = (sr - sl) / f["wheel_sep"][due]
-    mid = f["odom_yaw"][due] + dth / 2
-    f["odom_x"][due] += ds * np.cos(mid)
-    f["odom_y"][due] += ds * np.sin(mid)
-    f["odom_yaw"][due] = (f["odom_yaw"][due] + dth + np.pi) % (2 * np.pi) - np.pi
-    dt = np.maximum(now - f["odom_stamp"][due], 1e-9)
-    f["odom_v"][due] = ds / dt
-    f["odom_w"][due] = dth / dt
-    f["enc_l"][due] = f["wheel_l"][due]
-    f["enc_r"][due] = f["wheel_r"][due]
-    f["odom_stamp"][due] = now
+    dth = (sr - sl) / f["wheel_sep"][sel]
+    mid = f["odom_yaw"][sel] + dth / 2
+    f["odom_x"][sel] += ds * np.cos(mid)
+    f["odom_y"][sel] += ds * np.sin(mid)
+    f["odom_yaw"][sel] = (f["odom_yaw"][sel] + dth + np.pi) % (2 * np.pi) - np.pi
+    dt = np.maximum(now - f["odom_stamp"][sel], 1e-9)
+    f["odom_v"][sel] = ds / dt
+    f["odom_w"][sel] = dth / dt
+    f["enc_l"][sel] = f["wheel_l"][sel]
+    f["enc_r"][sel] = f["wheel_r"][sel]
+    f["odom_stamp"][sel] = now
 
 
 def imu_reading(t: RobotTable, i: int, roll_pitch: tuple[float, float] = (0.0, 0.0)) -> ImuReading:

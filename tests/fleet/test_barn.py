@@ -169,16 +169,48 @@ def test_an_agent_process_drives_a_barn_world_and_is_scored_by_barn_rules(tmp_pa
     assert r["distance_to_goal"] <= 1.0 and not r["collided"]
 
 
-def test_an_agent_that_crashes_is_a_graded_failure_with_its_reason(tmp_path):
+@pytest.mark.parametrize("mode, outcome", [("crash", "agent_crashed"), ("hang", "agent_hung")])
+def test_an_agent_that_crashes_or_hangs_is_a_graded_failure_with_its_reason(tmp_path, mode, outcome):
+    """The agent fails the world (crash: an exception after 5 ticks; hang: silent after 5 ticks,
+    caught by --tick-timeout) as a graded failure with its reason; the suite itself does not fail."""
     import sys
 
     write_barn_world(tmp_path, 7)
     out = tmp_path / "out"
     res = CliRunner().invoke(app, ["barn", "run", "--worlds-dir", str(tmp_path), "--robot", "barn_jackal",
-                                   "--agent", f"{sys.executable} {AGENTS} crash", "--out", str(out)])
+                                   "--agent", f"{sys.executable} {AGENTS} {mode}", "--tick-timeout", "1",
+                                   "--out", str(out)])
     assert res.exit_code == 0, res.output  # a graded failure, not a suite error
     (r,) = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
-    assert not r["success"] and r["outcome"] == "agent_crashed" and r["barn_metric"] == 0.0
-    assert "exit code" in r["reason"] and "controller blew up on purpose" in r["agent_log"]
+    assert not r["success"] and r["outcome"] == outcome and r["barn_metric"] == 0.0, r
+    assert 0 < r["path_length"] < 1.0  # it drove its 5 ticks at 0.5 m/s, then stopped counting
+    if mode == "crash":
+        assert "exit code" in r["reason"] and "controller blew up on purpose" in r["agent_log"]
+    else:
+        assert "1" in r["reason"] and r["reason"]
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["outcomes"] == {"agent_crashed": 1}
+    assert summary["outcomes"] == {outcome: 1}
+
+
+def test_the_course_robot_sees_barn_obstacles_only_with_its_lidar_lowered(tmp_path):
+    """The test world's cylinders are centred on the floor with length 1 (as BARN's): their tops are at 0.5 m.
+    The course diffbot's lidar (0.57 m) gets no return; diffbot_low_lidar (mast 0.15 m → 0.42 m) sees them and
+    is otherwise the course robot."""
+    from fleet.paths import robot_file
+    from sim.robot_spec import load_robot_spec
+
+    course, low = (load_robot_spec(robot_file(n)) for n in ("diffbot", "diffbot_low_lidar"))
+    assert course.lidar_height == pytest.approx(0.57) and low.lidar_height == pytest.approx(0.42)
+    assert low.model_dump(exclude={"name", "mast"}) == course.model_dump(exclude={"name", "mast"})
+    write_barn_world(tmp_path, 7)
+    seen = {}
+    for robot in ("diffbot", "diffbot_low_lidar"):
+        out = tmp_path / robot
+        res = CliRunner().invoke(app, ["barn", "run", "--worlds-dir", str(tmp_path), "--robot", robot,
+                                       "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        (r,) = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+        seen[robot] = r["lidar_returns_per_scan"]
+        warnings = json.loads((out / "summary.json").read_text())["warnings"]
+        assert bool(warnings) == (robot == "diffbot")
+    assert seen["diffbot"] == 0 and seen["diffbot_low_lidar"] > 0

@@ -7,6 +7,8 @@ path file at 2.0 m/s). Configurations (one configuration for every world, no per
 - prior: the same navigator given the world's obstacles;
 - diffbot: the course robot, lidar at 0.57 m over BARN's 0.5 m obstacles (it sees nothing), sensors only;
 - diffbot_prior: the course robot with the prior map;
+- diffbot_low: the course robot with its lidar mast shortened to put the lidar at 0.42 m, under the obstacles'
+  tops (configs/robots/diffbot_low_lidar.yaml, a BARN variant), sensors only;
 - baseline: the pre-existing planning.Navigator (circumscribed-disc inflation, prior map grown to
   cover the goal), barn_jackal — measured in the same run.
 Reference figures (BARN paper, hidden test set): DWA 0.88 success / 0.169 metric; best 2023–24 entries ≈ 0.40–0.45.
@@ -37,6 +39,7 @@ CONFIGS: dict[str, tuple[str, str, str]] = {  # name: (robot, controller, map_so
     "prior": ("barn_jackal", "builtin:footprint_dwa", "prior"),
     "diffbot": ("diffbot", "builtin:footprint_dwa", "sensors"),
     "diffbot_prior": ("diffbot", "builtin:footprint_dwa", "prior"),
+    "diffbot_low": ("diffbot_low_lidar", "builtin:footprint_dwa", "sensors"),
     "baseline": ("barn_jackal", "builtin:navigator", "prior"),
 }
 

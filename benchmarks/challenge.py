@@ -9,6 +9,9 @@ ceiling is 0.5 (reaching the goal within 2·T_opt).
 
     .venv/bin/python benchmarks/challenge.py            # cluttered_1..5 + arena_course, 3 runs each
     .venv/bin/python benchmarks/challenge.py --quick    # cluttered_1, cluttered_5; 1 run each
+    .venv/bin/python benchmarks/challenge.py --map-source sensors  # builtins on their own lidar only
+
+The builtins navigate on the challenge's `map_source` (default prior: the world's obstacles) unless told.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from pathlib import Path
 sys.path[0] = str(Path(__file__).resolve().parent.parent)
 
 from fleet.grading import ChallengeReport, run_challenge  # noqa: E402
+from fleet.grading.challenge import load_challenge  # noqa: E402
 from planning import controller_names  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -30,22 +34,26 @@ SEEKER = (f"python {ROOT / 'examples' / 'goal_seeker.py'} --connect {{connect}} 
           "--goal {goal_x} {goal_y} --lockstep")
 
 
-def grade(challenge: str, who: str, runs: int, out: Path) -> tuple[ChallengeReport, float]:
+def grade(challenge: str, who: str, runs: int, out: Path, map_source: str) -> tuple[ChallengeReport, float]:
     t0 = time.perf_counter()
     agent, controller = (SEEKER, None) if who == "goal_seeker" else (None, f"builtin:{who}")
-    report = run_challenge(challenge, agent=agent, controller=controller, runs=runs, out_dir=out / challenge / who)
+    ch = load_challenge(challenge).model_copy(update={"map_source": map_source})
+    report = run_challenge(ch, agent=agent, controller=controller, runs=runs, out_dir=out / challenge / who)
     return report, time.perf_counter() - t0
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--map-source", choices=("sensors", "prior", "both"), default="prior",
+                    help="what the builtins' navigator knows (the goal seeker only ever has its Zenoh scans)")
     a = ap.parse_args()
     challenges = ["cluttered_1", "cluttered_5"] if a.quick else [f"cluttered_{k}" for k in range(1, 6)] + [
         "arena_course"]
     runs = 1 if a.quick else 3
     contestants = ["goal_seeker", *controller_names()]
-    print(f"{len(challenges)} challenges × {runs} run(s); baseline: goal_seeker (reactive, over Zenoh in lock-step)")
+    print(f"{len(challenges)} challenges × {runs} run(s); builtins on map_source {a.map_source}; baseline: "
+          "goal_seeker (over Zenoh in lock-step)")
     print(f"{'challenge':14s} {'contestant':14s} {'success':>8s} {'score':>7s} {'±':>6s} {'T s':>7s} {'T_opt s':>8s} "
           f"{'SPL':>6s} {'min clr m':>9s} {'jerk':>6s} {'wall s':>7s}")
     totals: dict[str, list[float]] = {c: [] for c in contestants}
@@ -53,7 +61,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for ch in challenges:
             for who in contestants:
-                rep, wall = grade(ch, who, runs, Path(tmp))
+                rep, wall = grade(ch, who, runs, Path(tmp), a.map_source)
                 s = rep.summary
                 totals[who].append(s["score"]["mean"])
                 rates[who].append(s["success_rate"])

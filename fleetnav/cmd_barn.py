@@ -26,12 +26,24 @@ def run(
     ids: str = typer.Option(None, "--ids", help="comma-separated world ids (default: every pair in the directory)"),
     robot: str = typer.Option("barn_jackal", "--robot", help="robot model name (configs/robots) or YAML file"),
     controller: str = typer.Option("builtin:footprint_dwa", "--controller", help="builtin:NAME"),
-    agent: str = typer.Option(None, "--agent", help="external agent command (not supported by barn run yet)"),
+    agent: str = typer.Option(None, "--agent", help="an agent process drives instead of a builtin, over Zenoh in "
+                              "lock-step, e.g. \"python my_nav.py --connect {connect} --robot {robot} --goal "
+                              "{goal_x} {goal_y} --lockstep\" (placeholders as `fleetnav challenge run`)"),
+    tick_timeout: float = typer.Option(2.0, "--tick-timeout", min=0.01, help="with --agent: wall s per lock-step "
+                                       "tick before the agent counts as hung"),
     map_source: str = typer.Option("sensors", "--map-source",
                                    help="sensors (lidar only, BARN rules) | prior (the world file) | both"),
     margin: float = typer.Option(None, "--margin", min=0.0, help="safety margin footprint↔obstacle, m"),
     runs: int = typer.Option(1, "--runs", min=1, help="runs per world"),
-    jobs: int = typer.Option(1, "-j", "--jobs", min=1, help="worlds run in parallel (local processes)"),
+    jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,
+                                    help="local: parallel worker processes (default 1); ray: CPUs of a Ray "
+                                         "instance started here (default all)"),
+    executor: str = typer.Option("local", "--executor", help="local (process pool) or ray (pip install "
+                                 "'fleetnav[ray]')"),
+    ray_address: str | None = typer.Option(None, "--ray-address", help="with --executor ray: a cluster's "
+                                           "host:port, or auto (the cluster on this machine); default: start "
+                                           "a local Ray instance"),
+    retries: int = typer.Option(2, "--retries", min=0, max=10, help="re-runs of a run whose worker died"),
     out: Path = typer.Option(Path("barn_out"), "--out", help="output directory"),
 ) -> None:
     """Run BARN worlds from start (−2.25, 3) to goal (−2.25, 13); write OUT/results.jsonl and OUT/summary.json."""
@@ -40,9 +52,8 @@ def run(
     from sim.errors import FleetError
     from sim.robot_spec import load_robot_spec
 
-    if agent:
-        typer.echo("error: --agent is not supported by `fleetnav barn run` yet; use a builtin controller "
-                   "(`fleetnav challenge run --agent` drives agents on the course challenges)", err=True)
+    if agent is not None and not agent.strip():
+        typer.echo("error: the agent command is empty (e.g. --agent \"python my_nav.py\")", err=True)
         raise typer.Exit(2)
     if map_source not in ("sensors", "prior", "both"):
         typer.echo(f"error: --map-source must be sensors, prior or both, got '{map_source}'", err=True)
@@ -52,7 +63,8 @@ def run(
         nav["margin"] = margin
     try:
         spec = load_robot_spec(robot_file(robot))
-        todo = make_jobs(worlds_dir, spec=spec, ids=_ids(ids), controller=controller, runs=runs, nav=nav)
+        todo = make_jobs(worlds_dir, spec=spec, ids=_ids(ids), controller=controller, runs=runs, nav=nav,
+                         agent=agent or "", agent_limits={"tick_timeout_s": tick_timeout})
     except FleetError as exc:
         typer.echo(f"error: {exc.message}" + (f" ({exc.hint})" if exc.hint else ""), err=True)
         raise typer.Exit(2) from exc
@@ -61,6 +73,11 @@ def run(
         typer.echo(f"world {row['world_id']:>3} run {row['run']}: {row['outcome']:<10} T={row['time_s']} s "
                    f"metric={row['barn_metric']} wall={row['wall_s']} s")
 
-    summary = run_suite(todo, out, workers=jobs, progress=show)
+    try:
+        summary = run_suite(todo, out, workers=jobs, progress=show,
+                            executor=executor, ray_address=ray_address, retries=retries)
+    except FleetError as exc:  # an executor that is not installed, --ray-address without ray, ...
+        typer.echo(f"error: {exc.message}" + (f" ({exc.hint})" if exc.hint else ""), err=True)
+        raise typer.Exit(2) from exc
     typer.echo(json.dumps(summary, indent=2))
     raise typer.Exit(0 if summary["runs"] and "error" not in summary["outcomes"] else 1)

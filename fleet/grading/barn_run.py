@@ -44,6 +44,8 @@ class BarnJob:
     seed: int = 0
     control_hz: float = 10.0
     physics_hz: float = 50.0
+    agent: str = ""  # an external agent command (placeholders as `fleetnav challenge run --agent`) instead
+    agent_limits: dict[str, Any] = field(default_factory=dict)  # AgentSection overrides (startup/tick/wall s)
 
 
 def check_controller(name: str) -> str:
@@ -60,22 +62,32 @@ def run_barn_job(job: BarnJob) -> dict[str, Any]:
     says what happened); setup errors (bad world file) come back as outcome 'error' with the message."""
     wall0, cpu0 = time.perf_counter(), time.process_time()
     try:
-        row = _run(job)
+        if job.agent:
+            from fleet.grading.barn_agent import run_agent_job  # it imports this module
+
+            row = run_agent_job(job)
+        else:
+            row = _run(job)
     except FleetError as exc:
-        row = _row(job, outcome="error", reason=f"{exc.code.value}: {exc.message}")
+        row = result_row(job, outcome="error", reason=f"{exc.code.value}: {exc.message}")
     row["wall_s"] = round(time.perf_counter() - wall0, 3)
     row["cpu_s"] = round(time.process_time() - cpu0, 3)  # this process's CPU time: wall time on an idle core
     return row
 
 
-def _row(job: BarnJob, **kw: Any) -> dict[str, Any]:
+def error_row(job: BarnJob, reason: str) -> dict[str, Any]:
+    """The row of a run that produced none (it raised, timed out or its worker was lost)."""
+    return result_row(job, outcome="error", reason=reason)
+
+
+def result_row(job: BarnJob, **kw: Any) -> dict[str, Any]:
     base: dict[str, Any] = {"world_id": job.world_id, "run": job.run, "success": False, "collided": False,
                             "timed_out": False, "time_s": math.nan, "distance_to_goal": math.nan,
                             "path_length": 0.0, "min_clearance": math.nan, "barn_metric": 0.0, "t_opt": math.nan,
                             "optimal_length": math.nan, "outcome": "", "reason": "",
-                            "map_source": "prior" if job.controller == "navigator"
+                            "map_source": "agent" if job.agent else "prior" if job.controller == "navigator"
                             else job.nav.get("map_source", "sensors"),
-                            "controller": job.controller, "robot": job.spec.get("name", "")}
+                            "controller": "agent" if job.agent else job.controller, "robot": job.spec.get("name", "")}
     base.update(kw)
     return base
 
@@ -124,7 +136,7 @@ def _run(job: BarnJob) -> dict[str, Any]:
     outcome = clock.outcome or ("nav_failed" if nav.state is NavState.FAILED else "timeout")
     success = outcome == "succeeded"
     t = clock.elapsed
-    return _row(job, success=success, collided=clock.collided, timed_out=outcome == "timeout",
+    return result_row(job, success=success, collided=clock.collided, timed_out=outcome == "timeout",
                 time_s=round(t, 3), distance_to_goal=round(final.distance_to(BARN_GOAL), 3),
                 path_length=round(driven, 3), min_clearance=round(clearance, 4),
                 barn_metric=round(barn_metric(success, t, t_opt), 4), t_opt=round(t_opt, 4),

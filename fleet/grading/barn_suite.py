@@ -1,45 +1,59 @@
-"""BARN as a suite: every (world, run) job through a small local process pool, results.jsonl + summary.json.
+"""BARN as a suite: every (world, run) job on an executor (`fleet.executors`: local pool or Ray), results.jsonl
++ summary.json.
 
-`map_jobs(fn, jobs, workers)` is the one place that runs jobs; it takes any picklable top-level function of
-one job, so an executor with the same shape (a list of picklable jobs → results, in order) can replace it.
+`map_jobs(fn, jobs, ...)` is the one place that runs jobs: `fleet.executors.run_map` over a picklable top-level
+function of one job. A job whose run raised, timed out on its worker or was lost with its worker still gets a
+row (outcome "error", the executor's reason), so a sweep always reports every world.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import multiprocessing as mp
 from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
+from fleet.executors import JobResult, JobState, run_map
 from fleet.grading.barn import find_pairs
-from fleet.grading.barn_run import BarnJob, check_controller, run_barn_job
+from fleet.grading.barn_run import BarnJob, check_controller, error_row, run_barn_job
 from sim.robot_spec import RobotSpec
 
-J = TypeVar("J")
-R = TypeVar("R")
+RUN_TIME_LIMIT_S = 900.0  # wall clock of one run on its worker: a run is ≤ 120 sim-s, far faster than real time
 
 
-def map_jobs(fn: Callable[[J], R], jobs: Sequence[J], workers: int = 1) -> Iterator[R]:
-    """Results of fn(job) in job order; `workers` > 1 runs them in that many spawned processes."""
-    if workers <= 1 or len(jobs) <= 1:
-        for job in jobs:
-            yield fn(job)
-        return
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-        yield from pool.map(fn, jobs)
+def map_jobs(fn: Callable[[BarnJob], dict[str, Any]], jobs: Sequence[BarnJob], workers: int | None = 1, *,
+             executor: str = "local", ray_address: str | None = None, retries: int = 2,
+             time_limit_s: float | None = RUN_TIME_LIMIT_S,
+             on_row: Callable[[int, dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
+    """One results row per job, in job order; `on_row(index, row)` on the driver as each lands."""
+
+    def row_of(res: JobResult) -> dict[str, Any]:
+        if res.state is JobState.DONE:
+            return dict(res.value)
+        why = res.error.strip().splitlines()[0] if res.error.strip() else "no result"
+        return error_row(jobs[res.index], f"{res.state.value}: {why}")
+
+    def landed(res: JobResult) -> None:
+        if on_row is not None and res.state.final and res.state is not JobState.CANCELED:
+            on_row(res.index, row_of(res))
+
+    results = run_map(fn, jobs, executor=executor, jobs=workers, ray_address=ray_address, retries=retries,
+                      time_limit_s=time_limit_s, label="BARN runs", show_progress=False,
+                      key=lambda j: f"world_{j.world_id}/run_{j.run}", on_result=landed)
+    return [row_of(r) for r in results if r.state is not JobState.CANCELED]
 
 
 def make_jobs(worlds_dir: Path, *, spec: RobotSpec, ids: list[int] | None = None,
               controller: str = "builtin:footprint_dwa",
-              runs: int = 1, nav: dict[str, Any] | None = None, control_hz: float = 10.0) -> list[BarnJob]:
+              runs: int = 1, nav: dict[str, Any] | None = None, control_hz: float = 10.0,
+              agent: str = "", agent_limits: dict[str, Any] | None = None) -> list[BarnJob]:
+    """One job per (world, run); with `agent` (a command) the agent drives instead of the builtin."""
     name = check_controller(controller)
     data = spec.model_dump()
     return [BarnJob(p.id, str(p.world), str(p.path), data, name, dict(nav or {}), run=k, seed=k,
-                    control_hz=control_hz)
+                    control_hz=control_hz, agent=agent, agent_limits=dict(agent_limits or {}))
             for p in find_pairs(worlds_dir, ids) for k in range(runs)]
 
 
@@ -67,18 +81,23 @@ def summarize_barn(rows: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def run_suite(jobs: list[BarnJob], out: Path, workers: int = 1,
-              progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
-    """Run every job, append each row to OUT/results.jsonl as it lands, then write OUT/summary.json."""
+def run_suite(jobs: list[BarnJob], out: Path, workers: int | None = 1,
+              progress: Callable[[dict[str, Any]], None] | None = None, *, executor: str = "local",
+              ray_address: str | None = None, retries: int = 2) -> dict[str, Any]:
+    """Run every job on the executor, append each row to OUT/results.jsonl as it lands (completion order, so
+    a long sweep can be watched), then rewrite it in job order (the same file whatever ran where) and write
+    OUT/summary.json."""
     out.mkdir(parents=True, exist_ok=True)
-    rows: list[dict[str, Any]] = []
     with (out / "results.jsonl").open("w", encoding="utf-8") as fh:
-        for row in map_jobs(run_barn_job, jobs, workers):
-            rows.append(row)
+        def landed(index: int, row: dict[str, Any]) -> None:
             fh.write(json.dumps(row) + "\n")
             fh.flush()
             if progress is not None:
                 progress(row)
+
+        rows = map_jobs(run_barn_job, jobs, workers, executor=executor, ray_address=ray_address,
+                        retries=retries, on_row=landed)
+    (out / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
     summary = summarize_barn(rows)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary

@@ -95,7 +95,7 @@ def _run_once(rc: ResolvedChallenge, k: int, contestant: str, spec: RobotSpec, o
     ch = rc.challenge
     seed = ch.seed + k
     builtin = contestant.startswith(BUILTIN)
-    nav = {"controller": {"type": contestant.removeprefix(BUILTIN)}} if builtin else {}
+    nav = navigation_settings(ch, contestant)
     svc = FleetService(FleetConfig(world=str(rc.world_path), physics_hz=ch.physics_hz, control_hz=ch.control_hz,
                                    seed=seed, fidelity=ch.fidelity, robot_model=ch.robot, navigation=nav))
     ep = Episode(svc, ROBOT, rc.goal, success_radius=ch.success_radius, time_limit=ch.time_limit,
@@ -119,6 +119,14 @@ def _run_once(rc: ResolvedChallenge, k: int, contestant: str, spec: RobotSpec, o
                       collision_times=ep.collision_times, clearance=clearances(traj, fcl_world, spec.footprint),
                       safety_distance=ch.safety_distance, goal=rc.goal, success_radius=ch.success_radius)
     return RunResult(k, seed, ep.outcome, ep.reason, score, traj, time.perf_counter() - wall0, log)
+
+
+def navigation_settings(ch: Challenge, contestant: str) -> dict[str, object]:
+    """The service's `navigation` settings for a run: a builtin's controller and the challenge's map source
+    (an agent brings its own navigation)."""
+    if not contestant.startswith(BUILTIN):
+        return {}
+    return {"controller": {"type": contestant.removeprefix(BUILTIN)}, "map_source": ch.map_source}
 
 
 def _drive_builtin(svc: FleetService, ep: Episode, wall_limit_s: float) -> None:

@@ -104,3 +104,113 @@ def test_barn_run_scores_a_hand_written_world(tmp_path):
     assert r["barn_metric"] == pytest.approx(r["t_opt"] / min(max(r["time_s"], 2 * r["t_opt"]), 8 * r["t_opt"]),
                                              abs=1e-3)
     assert summary["success_rate"] == 1.0 and summary["mean_barn_metric"] == pytest.approx(r["barn_metric"])
+
+
+def test_barn_run_on_the_local_pool_matches_one_process(tmp_path):
+    """`-j 2` on the local executor (two spawned workers) writes the same rows, in the same order, as `-j 1`."""
+    write_barn_world(tmp_path, 7)
+    write_barn_world(tmp_path, 13)
+    rows = {}
+    for j in ("1", "2"):
+        out = tmp_path / f"out{j}"
+        res = CliRunner().invoke(app, ["barn", "run", "--worlds-dir", str(tmp_path), "--robot", "barn_jackal",
+                                       "--executor", "local", "-j", j, "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        lines = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+        rows[j] = [{k: v for k, v in r.items() if k not in ("wall_s", "cpu_s")} for r in lines]
+    assert [r["world_id"] for r in rows["1"]] == [7, 13]
+    assert rows["2"] == rows["1"]
+
+
+def test_a_job_that_dies_becomes_an_error_row(tmp_path):
+    """A run whose job raises (here: a path file that is not a path) is reported as outcome 'error' with the
+    reason, and the other worlds still run."""
+    from fleet.grading.barn_suite import make_jobs, map_jobs
+    from fleet.paths import robot_file
+    from sim.robot_spec import load_robot_spec
+
+    write_barn_world(tmp_path, 7)
+    jobs = make_jobs(tmp_path, spec=load_robot_spec(robot_file("barn_jackal")))
+    broken = [type(jobs[0])(**{**jobs[0].__dict__, "world_id": 8, "path": str(tmp_path / "missing.npy")})]
+    rows = map_jobs(_raise_on_missing, broken + jobs, workers=1)
+    assert [r["world_id"] for r in rows] == [8, 7]
+    assert rows[0]["outcome"] == "error" and "missing.npy" in rows[0]["reason"] and not rows[0]["success"]
+    assert rows[1]["outcome"] == "succeeded"
+
+
+def _raise_on_missing(job):
+    from fleet.grading.barn_run import run_barn_job
+
+    if not Path(job.path).exists():
+        raise FileNotFoundError(job.path)
+    return run_barn_job(job)
+
+
+AGENTS = Path(__file__).resolve().parent / "challenge_agents.py"
+
+
+def test_an_agent_process_drives_a_barn_world_and_is_scored_by_barn_rules(tmp_path):
+    """`--agent` runs the process over Zenoh in lock-step with the challenge placeholders; here it drives
+    straight up the free column at 0.5 m/s: from 0.1 m off the start to 1 m from the goal is 8.9 m, so
+    T = 17.8 s (± one 0.1 s tick) and the metric is BARN's formula of that T."""
+    import sys
+
+    write_barn_world(tmp_path, 7)
+    out = tmp_path / "out"
+    cmd = f"{sys.executable} {AGENTS} wall --connect {{connect}} --robot {{robot}} --goal {{goal_x}} {{goal_y}}"
+    res = CliRunner().invoke(app, ["barn", "run", "--worlds-dir", str(tmp_path), "--robot", "barn_jackal",
+                                   "--agent", cmd, "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    (r,) = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert r["success"] and r["outcome"] == "succeeded" and r["controller"] == "agent", r
+    assert r["time_s"] == pytest.approx(8.9 / 0.5, abs=0.15)
+    assert r["barn_metric"] == pytest.approx(r["t_opt"] / min(max(r["time_s"], 2 * r["t_opt"]), 8 * r["t_opt"]),
+                                             abs=1e-3)
+    assert r["distance_to_goal"] <= 1.0 and not r["collided"]
+
+
+@pytest.mark.parametrize("mode, outcome", [("crash", "agent_crashed"), ("hang", "agent_hung")])
+def test_an_agent_that_crashes_or_hangs_is_a_graded_failure_with_its_reason(tmp_path, mode, outcome):
+    """The agent fails the world (crash: an exception after 5 ticks; hang: silent after 5 ticks,
+    caught by --tick-timeout) as a graded failure with its reason; the suite itself does not fail."""
+    import sys
+
+    write_barn_world(tmp_path, 7)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["barn", "run", "--worlds-dir", str(tmp_path), "--robot", "barn_jackal",
+                                   "--agent", f"{sys.executable} {AGENTS} {mode}", "--tick-timeout", "1",
+                                   "--out", str(out)])
+    assert res.exit_code == 0, res.output  # a graded failure, not a suite error
+    (r,) = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert not r["success"] and r["outcome"] == outcome and r["barn_metric"] == 0.0, r
+    assert 0 < r["path_length"] < 1.0  # it drove its 5 ticks at 0.5 m/s, then stopped counting
+    if mode == "crash":
+        assert "exit code" in r["reason"] and "controller blew up on purpose" in r["agent_log"]
+    else:
+        assert "1" in r["reason"] and r["reason"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["outcomes"] == {outcome: 1}
+
+
+def test_the_course_robot_sees_barn_obstacles_only_with_its_lidar_lowered(tmp_path):
+    """The test world's cylinders are centred on the floor with length 1 (as BARN's): their tops are at 0.5 m.
+    The course diffbot's lidar (0.57 m) gets no return; diffbot_low_lidar (mast 0.15 m → 0.42 m) sees them and
+    is otherwise the course robot."""
+    from fleet.paths import robot_file
+    from sim.robot_spec import load_robot_spec
+
+    course, low = (load_robot_spec(robot_file(n)) for n in ("diffbot", "diffbot_low_lidar"))
+    assert course.lidar_height == pytest.approx(0.57) and low.lidar_height == pytest.approx(0.42)
+    assert low.model_dump(exclude={"name", "mast"}) == course.model_dump(exclude={"name", "mast"})
+    write_barn_world(tmp_path, 7)
+    seen = {}
+    for robot in ("diffbot", "diffbot_low_lidar"):
+        out = tmp_path / robot
+        res = CliRunner().invoke(app, ["barn", "run", "--worlds-dir", str(tmp_path), "--robot", robot,
+                                       "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        (r,) = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+        seen[robot] = r["lidar_returns_per_scan"]
+        warnings = json.loads((out / "summary.json").read_text())["warnings"]
+        assert bool(warnings) == (robot == "diffbot")
+    assert seen["diffbot"] == 0 and seen["diffbot_low_lidar"] > 0

@@ -114,3 +114,23 @@ def test_same_challenge_and_seed_give_the_same_trajectory(tmp_path):
     assert a.runs[0].trajectory.shape == b.runs[0].trajectory.shape
     assert (a.runs[0].trajectory == b.runs[0].trajectory).all()
     assert a.runs[0].score == b.runs[0].score
+
+
+def test_map_source_reaches_a_builtin_and_sensors_only_still_passes_an_arena(tmp_path):
+    """`map_source` (default prior) goes to a builtin's navigator; on `sensors` (its own lidar only, unknown
+    space traversable) the navigator still solves a generated arena; a bad value names the field."""
+    from fleet.grading.runner import navigation_settings
+
+    ch = load_challenge("cluttered_1")
+    assert ch.map_source == "prior"
+    sensed = ch.model_copy(update={"map_source": "sensors"})
+    assert navigation_settings(sensed, "builtin:mpc_osqp") == {"controller": {"type": "mpc_osqp"},
+                                                                "map_source": "sensors"}
+    assert navigation_settings(sensed, "python my_nav.py") == {}  # an agent brings its own navigation
+    report = run_challenge(sensed, controller="builtin:mpc_osqp", runs=1, out_dir=tmp_path / "out")
+    assert report.runs[0].score.success, report.runs[0].reason
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\nworld: robot_arena\nstart: spawn_start\ngoal: goal_marker\ntime_limit: 10\n"
+                   "map_source: lidar\n", encoding="utf-8")
+    with pytest.raises(FleetError, match="map_source"):
+        load_challenge(bad)

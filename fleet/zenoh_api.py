@@ -227,6 +227,9 @@ def decode(model: type[M], payload: bytes | None, what: str) -> M:
     except (UnicodeDecodeError, ValueError) as exc:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{what}: payload is not JSON ({exc})",
                          f"send a JSON object with fields: {', '.join(model.model_fields)}") from exc
+    except RecursionError:  # `[[[[...` thousands deep: the parser gives up (no request nests that deep)
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{what}: payload nests too deeply",
+                         f"send a flat JSON object with fields: {', '.join(model.model_fields)}") from None
     try:
         return model.model_validate(data)
     except ValidationError as exc:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import logging
 import weakref
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -23,6 +24,7 @@ class App:
 
 _SESSIONS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
 _COUNTER = itertools.count(1)
+log = logging.getLogger("fleetnav.mcp")
 
 
 def app_of(ctx: Context) -> App:
@@ -55,7 +57,23 @@ def client_of(ctx: Context) -> str:
     sid = _SESSIONS.get(conn)
     if sid is None:
         sid = _SESSIONS[conn] = f"s{next(_COUNTER)}"
+        stack = getattr(conn, "exit_stack", None)
+        if stack is not None:  # the SDK unwinds it when the session ends (client closed, stdio EOF, HTTP DELETE)
+            stack.push_async_callback(_release, app_of(ctx).service, f"{who}/{sid}")
     return f"{who}/{sid}"
+
+
+async def _release(service: FleetService, client: str) -> None:
+    """The session ended: its leases go and its robots stop (nobody is left to drive them)."""
+    import anyio
+
+    try:
+        robots = await anyio.to_thread.run_sync(service.release_client, client, "MCP session closed")
+    except Exception as exc:  # the service is shutting down (or dead): nothing left to release into
+        log.info("releasing %s at session end: %s", client, exc)
+        return
+    if robots:
+        log.info("MCP session %s closed: released %s", client, ", ".join(robots))
 
 
 async def run(ctx: Context, fn: Any, *args: Any, **kwargs: Any) -> Any:

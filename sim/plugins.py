@@ -44,6 +44,10 @@ class PluginRegistry(Generic[P]):
     def names(self) -> list[str]:
         return sorted(self._entries)
 
+    def configs(self) -> dict[str, type[BaseModel]]:
+        """name → config model (its fields are what a caller may set besides `type`)."""
+        return {n: self._entries[n].config for n in self.names()}
+
     def entry(self, name: str) -> PluginEntry[P]:
         if name not in self._entries:
             raise unknown_name(self.kind, name, self.names(), self.code)

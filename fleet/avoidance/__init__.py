@@ -10,6 +10,7 @@ from fleet.avoidance.orca import OrcaConfig, OrcaFilter
 from fleet.avoidance.registry import (
     Avoidance,
     avoidance_config,
+    avoidance_configs,
     avoidance_names,
     make_avoidance,
     register_avoidance,
@@ -18,5 +19,5 @@ from fleet.avoidance.types import AvoidanceConfig, FleetFrame
 
 __all__ = [
     "Avoidance", "AvoidanceConfig", "FleetFrame", "NoAvoidance", "OrcaConfig", "OrcaFilter", "StaticClearance",
-    "avoidance_config", "avoidance_names", "make_avoidance", "register_avoidance", "solve_lp",
+    "avoidance_config", "avoidance_configs", "avoidance_names", "make_avoidance", "register_avoidance", "solve_lp",
 ]

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
+from pydantic import BaseModel
+
 from fleet.avoidance.types import AvoidanceConfig
 from sim.plugins import PluginRegistry
 
@@ -31,6 +33,11 @@ C = TypeVar("C")
 def register_avoidance(name: str, config: type[AvoidanceConfig]) -> Callable[[C], C]:
     """Class decorator: register an avoidance plugin under `name`; registering a name twice raises."""
     return _REGISTRY.register(name, config)
+
+
+def avoidance_configs() -> dict[str, type[BaseModel]]:
+    """name → the avoidance plugin's config model (typed schemas for the MCP tools)."""
+    return _REGISTRY.configs()
 
 
 def avoidance_names() -> list[str]:

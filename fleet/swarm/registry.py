@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
+from pydantic import BaseModel
+
 from fleet.swarm.types import Behaviour, BehaviourConfig
 from sim.errors import ErrorCode
 from sim.plugins import PluginRegistry
@@ -16,6 +18,11 @@ C = TypeVar("C")
 def register_behaviour(name: str, config: type[BehaviourConfig], min_robots: int = 1) -> Callable[[C], C]:
     """Class decorator: register a behaviour under `name`; registering a name twice raises."""
     return _REGISTRY.register(name, config, min_robots=min_robots)
+
+
+def behaviour_configs() -> dict[str, type[BaseModel]]:
+    """name → the swarm behaviour's config model (typed schemas for the MCP tools)."""
+    return _REGISTRY.configs()
 
 
 def behaviour_names() -> list[str]:

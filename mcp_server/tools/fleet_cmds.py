@@ -3,18 +3,25 @@ swarm behaviours with their metrics, multi-robot avoidance, deadlocks, the robot
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from mcp.server.mcpserver import Context
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, WithJsonSchema
 
+from fleet.avoidance import avoidance_configs
 from fleet.deadlock import DeadlockConfig
+from fleet.swarm import behaviour_configs
 from mcp_server.app import app_of, client_of, run
+from mcp_server.plugin_params import checked, settings_schema
 from mcp_server.registry import ToolRegistrar
 from mcp_server.shaping import Answer, ResponseFormat, fleet_summary
 from sim import Pose2D
 
 Formation = Literal["line", "column", "grid", "circle", "wedge", "random"]
+# Per-type settings: the schema lists each registered type's fields; the tool validates against the one named.
+BehaviourParams = Annotated[dict[str, Any] | None, WithJsonSchema(settings_schema(behaviour_configs(), "behaviour"))]
+AvoidanceSettings = Annotated[dict[str, Any] | None, WithJsonSchema(settings_schema(avoidance_configs(),
+                                                                                    "avoidance"))]
 
 
 class PoseXY(BaseModel):
@@ -138,9 +145,11 @@ def register(tool: ToolRegistrar) -> None:
     @tool(read_only=False, title="Start a swarm behaviour")
     async def start_swarm_behaviour(ctx: Context, behaviour: Literal["flocking", "coverage", "formation",
                                     "leader_follower", "rendezvous"], robots: list[str] | None = None,
-                                    params: dict[str, Any] | None = None) -> Result:
+                                    params: BehaviourParams = Field(None, description="the behaviour's "
+                                    "settings (the alternative named after it); omitted: its defaults")) -> Result:
         """Run a swarm behaviour on robots (all by default); swarm_status reports its metric over time."""
         app = app_of(ctx)
+        params = checked(behaviour_configs(), "behaviour", behaviour, params)
         out = await run(ctx, app.service.start_behaviour, behaviour, robots, params, client=client_of(ctx))
         return Result(sim_time=app.service.sim_time, result=out)
 
@@ -167,10 +176,13 @@ def register(tool: ToolRegistrar) -> None:
     @tool(read_only=False, idempotent=True, title="Set collision avoidance")
     async def set_collision_avoidance(ctx: Context, plugin: Literal["orca", "none"] | None = Field(None, description=
                                       "plugin; omitted: keep the current one"),
-                                      settings: dict[str, float] | None = Field(None, description="e.g. "
-                                      "time_horizon, neighbor_dist, max_neighbors, radius_margin")) -> Result:
+                                      settings: AvoidanceSettings = Field(None, description="the "
+                                      "plugin's settings (the alternative named after it); omitted fields keep "
+                                      "their values")) -> Result:
         """Enable/disable multi-robot avoidance (orca | none) or tune it."""
         svc = app_of(ctx).service
+        current = plugin or str((await run(ctx, svc.avoidance_settings))["type"])
+        settings = checked(avoidance_configs(), "avoidance", current, settings)
         return Result(sim_time=svc.sim_time, result=await run(ctx, svc.set_avoidance, plugin, **(settings or {})))
 
     @tool(read_only=True, title="Deadlock report")

@@ -18,6 +18,7 @@ from mcp_server.shaping import OVERWRITE, Answer, ResponseFormat
 from planning import render_map
 from planning.grid import OccupancyGrid
 from sim import Pose2D
+from slam.log_config import LogSlamConfig
 from slam.types import SlamConfig
 
 
@@ -120,8 +121,8 @@ def register(tool: ToolRegistrar) -> None:
         odometry: Literal["odom_increments", "laser_pose", "none"] = Field(
             "odom_increments", description="CARMEN odometry: raw ODOM increments (honest default), the laser "
             "lines' poses (corrected reference poses in Radish logs: not an honest input), or none"),
-        config: dict[str, Any] | None = Field(None, description="slam.log_config.LogSlamConfig sections: "
-                                              "frontend, loops, mapping, max_range, point_spacing, laser"),
+        config: LogSlamConfig | None = Field(None, description="SLAM settings (frontend, loops, mapping, "
+                                             "max_range, point_spacing, laser); odometry is its own argument"),
         max_px: int = Field(800, ge=64, le=4096, description="longest side of the returned map image, px"),
     ) -> Annotated[CallToolResult, LogSlamResult]:
         """Map a recorded log (correlative + ICP scan-to-map front end, branch-and-bound loop closure, GTSAM
@@ -131,7 +132,8 @@ def register(tool: ToolRegistrar) -> None:
         from PIL import Image
 
         svc = app_of(ctx).service
-        report = await anyio.to_thread.run_sync(lambda: svc.run_slam_on_log(path, out, odometry, config))
+        report = await anyio.to_thread.run_sync(lambda: svc.run_slam_on_log(
+            path, out, odometry, config.model_dump(exclude_unset=True, exclude={"odometry"}) if config else None))
         img = Image.open(f"{report['out']}/map.png")
         img.thumbnail((max_px, max_px))
         buf = io.BytesIO()

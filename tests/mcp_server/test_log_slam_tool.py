@@ -29,4 +29,4 @@ async def test_run_slam_on_log(client, workspace: Path) -> None:
     (workspace / "outputs" / "mine" / "notes.txt").write_text("not the server's")
     assert "did not write" in await err(client, "run_slam_on_log", {"path": "logs/lap.log", "out": "mine"})
     assert (workspace / "outputs" / "mine" / "notes.txt").read_text() == "not the server's"
-    assert "frontend" in await err(client, "run_slam_on_log", {"path": "logs/lap.log", "config": {"bogus": 1}})
+    assert "config.bogus" in await err(client, "run_slam_on_log", {"path": "logs/lap.log", "config": {"bogus": 1}})

@@ -36,10 +36,10 @@ class PoseXY(BaseModel):
 class TaskSpecIn(BaseModel):
     type: str = Field(description="an allocatable task type, e.g. go_to, follow_waypoints, cover_area")
     params: dict[str, Any] = Field(default_factory=dict, description="e.g. {goal: {x, y, yaw}}")
-    priority: int = 0
-    earliest_start: float | None = None
-    deadline: float | None = None
-    id: str | None = None
+    priority: int = Field(0, description="higher goes first when robots are scarce")
+    earliest_start: float | None = Field(None, description="sim time (s) before which the task may not start")
+    deadline: float | None = Field(None, description="sim time (s) by which the task should be done")
+    id: str | None = Field(None, description="your id for the task (default: one is assigned)")
 
 
 class Result(Answer):

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import typer
 
+from fleetnav.sweep_options import EXECUTOR, RAY_ADDRESS, RETRIES
+
 barn_app = typer.Typer(add_completion=False, no_args_is_help=True,
                        help="BARN (Benchmark for Autonomous Robot Navigation) worlds as a built-in suite.")
 
@@ -38,12 +40,9 @@ def run(
     jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,
                                     help="local: parallel worker processes (default 1); ray: CPUs of a Ray "
                                          "instance started here (default all)"),
-    executor: str = typer.Option("local", "--executor", help="local (process pool) or ray (pip install "
-                                 "'fleetnav[ray]')"),
-    ray_address: str | None = typer.Option(None, "--ray-address", help="with --executor ray: a cluster's "
-                                           "host:port, or auto (the cluster on this machine); default: start "
-                                           "a local Ray instance"),
-    retries: int = typer.Option(2, "--retries", min=0, max=10, help="re-runs of a run whose worker died"),
+    executor: str = EXECUTOR,
+    ray_address: str | None = RAY_ADDRESS,
+    retries: int = RETRIES,
     out: Path = typer.Option(Path("barn_out"), "--out", help="output directory"),
 ) -> None:
     """Run BARN worlds from start (−2.25, 3) to goal (−2.25, 13); write OUT/results.jsonl and OUT/summary.json."""

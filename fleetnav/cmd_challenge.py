@@ -10,6 +10,8 @@ from pathlib import Path
 
 import typer
 
+from fleetnav.sweep_options import EXECUTOR, RAY_ADDRESS, RETRIES
+
 challenge_app = typer.Typer(add_completion=False, no_args_is_help=True,
                             help="Navigation challenges: grade an agent or a builtin navigator (BARN score).")
 
@@ -31,13 +33,12 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
         leaderboard: Path | None = typer.Option(None, help="add the result to this leaderboard file"),
         name: str | None = typer.Option(None, help="the contestant's name on the leaderboard"),
         as_json: bool = typer.Option(False, "--json", help="print the report as JSON"),
-        executor: str = typer.Option("local", "--executor", help="local or ray (pip install 'fleetnav[ray]')"),
+        executor: str = EXECUTOR,
         jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,
                                         help="local: runs in parallel processes (default 1: in turn, here); ray: "
                                              "CPUs of a Ray instance started here"),
-        ray_address: str | None = typer.Option(None, "--ray-address", help="with --executor ray: host:port or "
-                                               "auto; default: start a local Ray instance"),
-        retries: int = typer.Option(2, "--retries", min=0, max=10, help="re-runs of a run whose worker died"))\
+        ray_address: str | None = RAY_ADDRESS,
+        retries: int = RETRIES)\
         -> None:
     """Grade a contestant: each run ends at the goal, a collision, the time limit, or an agent fault."""
     from fleet.executors import make_executor

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import typer
 
+from fleetnav.sweep_options import EXECUTOR, RAY_ADDRESS, RETRIES
+
 EXIT_FAILED, EXIT_INPUT, EXIT_CANCELED = 1, 2, 130
 
 
@@ -45,12 +47,9 @@ def run(
     speed: float = typer.Option(1.0, "--speed", min=0.01, help="with --live: real-time factor to hold"),
     no_record: bool = typer.Option(False, "--no-record", help="skip the MCAP recording"),
     time_limit: float | None = typer.Option(None, "--time-limit", min=0.1, help="override the missions' time limit"),
-    executor: str = typer.Option("local", "--executor", help="local (process pool) or ray (pip install "
-                                 "'fleetnav[ray]')"),
-    ray_address: str | None = typer.Option(None, "--ray-address", help="with --executor ray: a cluster's "
-                                           "host:port, or auto (the cluster on this machine); default: start "
-                                           "a local Ray instance"),
-    retries: int = typer.Option(2, "--retries", min=0, max=10, help="re-runs of a run whose worker died"),
+    executor: str = EXECUTOR,
+    ray_address: str | None = RAY_ADDRESS,
+    retries: int = RETRIES,
     run_timeout: float = typer.Option(900.0, "--run-timeout", min=1.0, help="wall-clock limit of one run on "
                                       "its worker, s (a hung agent is stopped there)"),
 ) -> None:

@@ -38,12 +38,16 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
                                         help="local: runs in parallel processes (default 1: in turn, here); ray: "
                                              "CPUs of a Ray instance started here"),
         ray_address: str | None = RAY_ADDRESS,
-        retries: int = RETRIES)\
+        retries: int = RETRIES,
+        live: bool = typer.Option(False, "--live", help="Foxglove live view of each run in turn, paced at --speed"),
+        port: int = typer.Option(8765, "--port", help="live view port"),
+        speed: float = typer.Option(1.0, "--speed", min=0.01, help="with --live: real-time factor to hold"))\
         -> None:
     """Grade a contestant: each run ends at the goal, a collision, the time limit, or an agent fault."""
     from fleet.executors import make_executor
     from fleet.grading import RunResult, run_challenge
     from fleet.grading import leaderboard as board
+    from fleet.grading.runner import LiveSettings
     from sim.errors import FleetError
 
     def progress(r: RunResult) -> None:
@@ -54,7 +58,9 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
         ex = None if executor == "local" and (jobs or 1) == 1 and ray_address is None else \
             make_executor(executor, jobs=jobs, ray_address=ray_address, retries=retries)
         report = run_challenge(challenge, agent=agent, controller=controller, runs=runs, out_dir=out,
-                               progress=progress, executor=ex)
+                               progress=progress, executor=ex, live=LiveSettings(port, speed) if live else None)
+        if live:
+            typer.echo(f"live view was on ws://127.0.0.1:{port} (layout: configs/foxglove_layout.json)")
         if leaderboard is not None:
             board.add(leaderboard, report, name)
     except FleetError as exc:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from fleet.config import FleetConfig
@@ -35,10 +36,15 @@ Progress = Callable[[RunResult], None]
 
 def run_challenge(challenge: Challenge | str | Path, *, agent: str | None = None, controller: str | None = None,
                   runs: int | None = None, out_dir: str | Path | None = None,
-                  progress: Progress | None = None, executor: Executor | None = None) -> ChallengeReport:
+                  progress: Progress | None = None, executor: Executor | None = None,
+                  live: LiveSettings | None = None) -> ChallengeReport:
     """Grade `agent` (a command, e.g. "python my_nav.py") or `controller` ("builtin:mpc_osqp") on `challenge`
     (a Challenge, a name in configs/challenges or a YAML path). Reports go to `out_dir`. With `executor`
-    (fleet.executors) the runs are its jobs (a local pool, a Ray cluster); without, they run here in turn."""
+    (fleet.executors) the runs are its jobs (a local pool, a Ray cluster); without, they run here in turn, and
+    `live` serves each run in turn to a Foxglove live view, paced at its real-time factor."""
+    if live is not None and executor is not None:
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, "a live view shows runs made here in turn, not a sweep",
+                         "drop --live, or the executor options")
     ch = challenge if isinstance(challenge, Challenge) else load_challenge(challenge)
     contestant = _contestant(agent, controller)
     if runs is not None and not 1 <= runs <= 100:
@@ -58,7 +64,7 @@ def run_challenge(challenge: Challenge | str | Path, *, agent: str | None = None
 
         results = run_all(ch, contestant, n, plan.length, out, executor, progress)
     for k in range(n) if executor is None else ():
-        result = _run_once(rc, k, contestant, spec, plan.length, fcl_world, out)
+        result = _run_once(rc, k, contestant, spec, plan.length, fcl_world, out, live)
         results.append(result)
         if progress is not None:
             progress(result)
@@ -86,12 +92,20 @@ def _contestant(agent: str | None, controller: str | None) -> str:
     return agent
 
 
+@dataclass(frozen=True)
+class LiveSettings:
+    """A Foxglove live view of a challenge's runs: the WebSocket port and the real-time factor to hold."""
+
+    port: int = 8765
+    speed: float = 1.0
+
+
 def _slug(contestant: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", contestant.replace(BUILTIN, "builtin_"))[:60].strip("_")
 
 
 def _run_once(rc: ResolvedChallenge, k: int, contestant: str, spec: RobotSpec, optimal_length: float,
-              fcl_world: FclWorld, out: Path) -> RunResult:
+              fcl_world: FclWorld, out: Path, live: LiveSettings | None = None) -> RunResult:
     ch = rc.challenge
     seed = ch.seed + k
     builtin = contestant.startswith(BUILTIN)
@@ -102,14 +116,21 @@ def _run_once(rc: ResolvedChallenge, k: int, contestant: str, spec: RobotSpec, o
                  collision_rule=ch.collision)
     wall0 = time.perf_counter()
     log = ""
+    view = None
     try:
+        if live is not None:
+            from fleet.live_view import LiveView
+
+            view = LiveView(port=live.port).attach(svc)
         svc.spawn_robot(ROBOT, rc.start)
         if builtin:
-            _drive_builtin(svc, ep, ch.agent.wall_limit_s)
+            _drive_builtin(svc, ep, ch.agent.wall_limit_s, pace=live.speed if live is not None else None)
         else:
             log = drive_agent(svc, ep, contestant, out / f"run_{k}_agent.log", ch.agent)
     finally:
         ep.close()
+        if view is not None:
+            view.close()
         svc.close()
     assert ep.outcome is not None
     traj = ep.trajectory()
@@ -129,14 +150,18 @@ def navigation_settings(ch: Challenge, contestant: str) -> dict[str, object]:
     return {"controller": {"type": contestant.removeprefix(BUILTIN)}, "map_source": ch.map_source}
 
 
-def _drive_builtin(svc: FleetService, ep: Episode, wall_limit_s: float) -> None:
-    """fleetnav's own navigator (plan → track → replan → recover), stepped in batch mode one tick at a time."""
+def _drive_builtin(svc: FleetService, ep: Episode, wall_limit_s: float, pace: float | None = None) -> None:
+    """fleetnav's own navigator (plan → track → replan → recover), stepped in batch mode one tick at a time;
+    `pace` (a real-time factor) holds the run to the wall clock for a live view."""
     steps = max(1, round(svc.config.physics_hz / svc.config.control_hz))
     task = svc.navigate(ROBOT, ep.goal)
     ep.start()
+    wall0, sim0 = time.perf_counter(), svc.sim_time
     deadline = time.monotonic() + wall_limit_s
     while not ep.done.is_set():
         svc.step(steps)
+        if pace:
+            time.sleep(max(0.0, (svc.sim_time - sim0) / pace - (time.perf_counter() - wall0)))
         state = svc.tasks.get(task["id"])
         if state.state.value in ("failed", "canceled"):
             ep.finish(Outcome.NAVIGATION_FAILED, f"the navigator gave up: {state.reason}")

@@ -8,6 +8,7 @@ import math
 import pytest
 import yaml
 
+from fleet.executors import make_executor
 from fleet.grading import barn_score, load_challenge, resolve, run_challenge
 from fleet.grading.arenas import candidates, difficulty_index, generate, measure
 from fleet.grading.challenge import CHALLENGES
@@ -134,3 +135,43 @@ def test_map_source_reaches_a_builtin_and_sensors_only_still_passes_an_arena(tmp
                    "map_source: lidar\n", encoding="utf-8")
     with pytest.raises(FleetError, match="map_source"):
         load_challenge(bad)
+
+
+def test_a_live_challenge_run_serves_the_map_to_a_viewer(tmp_path):
+    import threading
+    import time
+
+    from fleet.grading.runner import LiveSettings
+    from tests.fleet.ws_viewer import Viewer
+    from tests.fleet.zenoh_util import free_port
+
+    port = free_port()
+    got: dict[str, object] = {}
+
+    def watch() -> None:
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and "map" not in got:
+            try:
+                viewer = Viewer("127.0.0.1", port)
+            except OSError:
+                time.sleep(0.05)
+                continue
+            try:
+                while "/map" not in viewer.channels and time.monotonic() < deadline:
+                    viewer.pump(time.monotonic() + 0.2)
+                viewer.subscribe("/map")
+                got["map"] = viewer.wait_for("/map")
+            finally:
+                viewer.close()
+
+    t = threading.Thread(target=watch, daemon=True)
+    t.start()
+    report = run_challenge("cluttered_1", controller="builtin:pure_pursuit", runs=1, out_dir=tmp_path,
+                           live=LiveSettings(port, speed=20.0))
+    t.join(timeout=1.0)
+    run = report.runs[0]
+    assert run.outcome.value == "succeeded"
+    assert got.get("map"), "the live viewer got no /map"
+    with pytest.raises(FleetError, match="live view"):
+        run_challenge("cluttered_1", controller="builtin:pure_pursuit", runs=1, out_dir=tmp_path / "b",
+                      live=LiveSettings(port), executor=make_executor("local", jobs=2))

@@ -5,7 +5,6 @@ Every PyBullet call passes this world's client id. See docs/world-api.md for the
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -18,6 +17,7 @@ from sim.drive import integrate_unicycle, limit_twist, wheel_speeds
 from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.kinematic_collisions import RawContact, resolve_kinematic_collisions
 from sim.models import ModelRegistry
+from sim.ray_backends import RayBackends, cast_pybullet
 from sim.robot_body import RobotBody
 from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
 from sim.robot_table import RobotTable
@@ -27,9 +27,6 @@ from sim.sensors.lidar import LidarConfig, cast_scans
 from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading, LidarScan, OdometryReading, Pose2D
 from sim.world_types import CommandResult, ModelState, SensorFault
 
-MAX_RAYS_PER_CALL = 16_000  # rayTestBatch returns nothing at exactly 16,384 rays and raises above it
-log = logging.getLogger("fleetnav.sim")
-RAYCASTERS = ("embree", "pybullet")
 LIDAR_PHASES = ("spread", "aligned")
 MAX_SPEED = 50.0  # m/s: any body faster than this is a physics explosion, not motion
 Reading = LidarScan | ImuReading | OdometryReading | ContactReading
@@ -53,8 +50,7 @@ class World:
         # "spread": robots' lidars are cast in different physics steps of their period, so no one step casts the
         # whole fleet's (sim/robot_spawn.py lidar_phase); "aligned": every first scan one period after spawn.
         self.lidar_phases = lidar_phases
-        self._embree: Any = None
-        self.set_raycaster(raycast)
+        self.rays = RayBackends(self, raycast)
         self.client = p.connect(p.GUI if gui else p.DIRECT)
         self.physics_hz = float(physics_hz)
         self.dt = 1.0 / self.physics_hz
@@ -325,40 +321,20 @@ class World:
     # ---- sensors ---------------------------------------------------------------------------------------
 
     def set_raycaster(self, name: str) -> None:
-        """Pick the ray-casting backend of lidar and cast_rays: "embree" (fleets; sim/raycast_embree.py) or
-        "pybullet" (rayTestBatch, the reference). They agree within 1 mm on flat geometry; on curved shapes
-        Embree is exact and Bullet's GJK ray test is off by up to a few mm (docs/benchmarks-sim.md)."""
-        if name not in RAYCASTERS:
-            raise unknown_name("ray caster", name, RAYCASTERS, ErrorCode.INVALID_ARGUMENT)
-        self.raycaster = name
+        """Pick the ray-casting backend of lidar and cast_rays: "embree" or "pybullet" (sim/ray_backends.py)."""
+        self.rays.select(name)
+
+    @property
+    def raycaster(self) -> str:
+        return self.rays.name
 
     def cast_rays(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Batched ray cast: (hit fraction in [0, 1], body uid or -1) per ray, by the selected backend."""
-        if self.raycaster == "embree":
-            if self._embree is None:
-                from sim.raycast_embree import EmbreeCaster
-
-                self._embree = EmbreeCaster(self)
-            try:
-                return self._embree.cast(origins, ends)
-            except FleetError as exc:  # geometry Embree cannot read back (a concave mesh with no file): the
-                if exc.code is not ErrorCode.UNSUPPORTED:  # reference caster serves this world instead
-                    raise
-                log.warning("ray casting falls back to PyBullet for world '%s': %s", self.name, exc.message)
-                self.raycaster = "pybullet"
-        return self.cast_rays_pybullet(origins, ends)
+        return self.rays.cast(origins, ends)
 
     def cast_rays_pybullet(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """PyBullet rayTestBatch, split into ≤16,000-ray calls."""
-        n = len(origins)
-        fractions = np.ones(n)
-        uids = np.full(n, -1, dtype=np.int64)
-        for a in range(0, n, MAX_RAYS_PER_CALL):
-            b = min(n, a + MAX_RAYS_PER_CALL)
-            res = p.rayTestBatch(origins[a:b], ends[a:b], numThreads=0, physicsClientId=self.client)
-            uids[a:b] = [r[0] for r in res]
-            fractions[a:b] = [r[2] for r in res]
-        return fractions, uids
+        return cast_pybullet(self.client, origins, ends)
 
     def latest_scan(self, name: str) -> LidarScan | None:
         self._row(name)

@@ -113,7 +113,7 @@ def test_culling_robots_out_of_reach_changes_no_scan(monkeypatch: pytest.MonkeyP
         with w:
             w.run_for(0.5)
             o = np.array([[0.0, 0.0, 0.2]])  # one ray from the first cluster: only its six robots are built
-            built = w._embree._dynamic_scene((0.1, 0.3), w._embree._reach(o, np.array([[10.0, 0.0, 0.0]])))
+            built = w.rays.embree._dynamic_scene((0.1, 0.3), w.rays.embree._reach(o, np.array([[10.0, 0.0, 0.0]])))
             assert len({int(u) for g in built for u in g.uid}) == (12 if re.MAX_REACH_TESTS == 0 else 6)
         return scans
 

@@ -26,6 +26,7 @@ from fleet.control import ControlLoop
 from fleet.events import EventBus
 from fleet.paths import Workspace, robot_model, world_file
 from fleet.safety import SafetyEnvelope
+from fleet.service_view import ServiceView
 from fleet.supervision import CMD_BUDGET_S, MAX_TICK_FAILURES, Health, dead, describe, internal, overrun
 from fleet.types import FleetSnapshot
 from sim import Clock, ClockMode, FleetError, Pose2D, RobotSpec, World
@@ -89,7 +90,8 @@ class ServiceCore:
         self.battery.docks = np.array([[p.x, p.y] for p in self.docks.values()], dtype=float).reshape(-1, 2)
         self.registry = RobotRegistry()
         self.control = ControlLoop(cast("FleetService", self))
-        self.tasks = TaskManager(cast("FleetService", self))
+        self.view = ServiceView(cast("FleetService", self))  # what tasks, avoidance, swarm, deadlocks see
+        self.tasks = TaskManager(self.view)
         self.control.add_source(self.tasks)
         self._static_grid: OccupancyGrid | None = None
         self._costmaps: dict[str, LayeredCostmap] = {}

@@ -108,7 +108,7 @@ class TaskOps(ServiceCore):
             raise FleetError(ErrorCode.LIMIT_EXCEEDED, f"the queue holds {validation.MAX_TASKS} tasks already",
                              "assign_tasks first")
         req = make_request(parse_spec({"type": type_name, "params": params or {}, "priority": priority,
-                                       "earliest_start": earliest_start, "deadline": deadline, "id": id}), self._svc())
+                                       "earliest_start": earliest_start, "deadline": deadline, "id": id}), self.view)
 
         def do() -> dict[str, Any]:
             if req.id in self._unassigned:
@@ -134,8 +134,7 @@ class TaskOps(ServiceCore):
             for i, t in enumerate(tasks):
                 validation.params(f"tasks[{i}]", t, self.bounds)
         opts = _options(method, options)
-        svc = self._svc()
-        requests = (None if tasks is None else [make_request(parse_spec(t), svc) for t in tasks])
+        requests = (None if tasks is None else [make_request(parse_spec(t), self.view) for t in tasks])
         inputs, now, keepouts, radius, pool = self.call(lambda: self._allocation_inputs(robots, opts))
         requests = pool if requests is None else requests
         b = self.config.battery

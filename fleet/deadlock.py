@@ -266,7 +266,7 @@ class DeadlockMonitor:
             action = "replanning around each other"
         dl.action = action
         view.publish(now, "deadlock", group, f"deadlock ({kind}) between {', '.join(group)}: {action}",
-                           id=dl.id, type=kind, policy=cfg.policy, winner=dl.winner)
+                     id=dl.id, type=kind, policy=cfg.policy, winner=dl.winner)
 
     def _progressed(self, dl: Deadlock, robot: str, xy: np.ndarray) -> bool:
         """Gone, done, or closer to its goal along its path by 2 × progress_m than at detection (backing off

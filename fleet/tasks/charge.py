@@ -65,7 +65,7 @@ class DockAndChargeTask(NavTask):
                 return cmd
             self.phase, self._best_soc, self._best_t = "charging", soc, ctx.now
             view.publish(ctx.now, "docked", (self.robot,), f"{self.robot} on {self.dock}", dock=self.dock,
-                               soc=soc, task=self.id)
+                         soc=soc, task=self.id)
         dock = view.docks[self.dock]
         if ctx.pose(self.robot).distance_to(dock) > view.battery_config.dock_radius:  # pushed off: drive back
             self.phase = "driving"
@@ -74,7 +74,7 @@ class DockAndChargeTask(NavTask):
         self._report(view, soc, target)
         if soc >= target - 1e-9:
             view.publish(ctx.now, "charged", (self.robot,), f"{self.robot} charged to {soc:.0%}",
-                               dock=self.dock, soc=soc, task=self.id)
+                         dock=self.dock, soc=soc, task=self.id)
             return self.succeed(ctx.now)
         if soc > self._best_soc + 1e-6:
             self._best_soc, self._best_t = soc, ctx.now

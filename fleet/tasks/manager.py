@@ -112,7 +112,7 @@ class TaskManager:
         task.state, task.started = TaskState.ACTIVE, ctx.now
         self.active[robot] = task
         self.view.publish(ctx.now, "task_started", (robot,), f"{task.type_name} {task.id} started",
-                                    task=task.id, type=task.type_name)
+                          task=task.id, type=task.type_name)
         try:
             task.begin(ctx)
         except FleetError as exc:
@@ -135,8 +135,7 @@ class TaskManager:
         kind = {TaskState.SUCCEEDED: "task_finished", TaskState.FAILED: "task_failed",
                 TaskState.CANCELED: "task_canceled"}[state]
         self.view.publish(now, kind, (task.robot,), f"{task.type_name} {task.id} {state.value}"
-                                    + (f": {reason}" if reason else ""), task=task.id, type=task.type_name,
-                                    reason=reason)
+                          + (f": {reason}" if reason else ""), task=task.id, type=task.type_name, reason=reason)
 
     def _trim(self) -> None:
         if len(self.tasks) > HISTORY:

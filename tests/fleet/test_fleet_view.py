@@ -13,6 +13,9 @@ import pytest
 from fleet.avoidance import OrcaFilter
 from fleet.deadlock import DeadlockConfig, DeadlockMonitor
 from fleet.fleet_view import RobotArrays
+from fleet.swarm import BehaviourManager
+from fleet.swarm.unicycle import OFFSET
+from fleet.tasks import TaskManager
 from fleet.tasks.basic import GoToTask
 from sim import ErrorCode, FleetError, Pose2D
 from tests.fleet.fleet_view_util import HandView
@@ -145,6 +148,47 @@ def test_a_chain_is_not_a_deadlock():
         view.now = 0.5 * k
         mon.commands(view.now)
     assert view.events == []
+
+
+# ---- tasks and a swarm behaviour on a hand-built view ----------------------------------------------------------
+
+
+def test_task_manager_alone_runs_a_wait_and_holds_it_while_e_stopped():
+    view = HandView(["a"], [[0.0, 0.0, 0.0]])
+    tasks = TaskManager(view)
+    with pytest.raises(FleetError) as exc:
+        tasks.submit("wait", "zz", {"seconds": 1.0})
+    assert exc.value.code is ErrorCode.UNKNOWN_ROBOT
+    task = tasks.submit("wait", "a", {"seconds": 1.0})
+    view.stopped.add("a")
+    for k in range(16):  # 0 … 1.5 s; released from the e-stop at 1.2 s
+        view.now = 0.1 * k
+        if view.now > 1.15:
+            view.stopped.discard("a")
+        assert tasks.commands(view.now).get("a", (0.0, 0.0)) == (0.0, 0.0)  # none once it finished
+    kinds = [(round(t, 6), kind) for t, kind, *_ in view.events]
+    assert kinds == [(0.0, "task_started"), (1.2, "task_finished")]  # due at 1.0, but e-stopped until 1.2
+    assert task.state.done and task.finished == pytest.approx(1.2)
+
+
+def test_rendezvous_alone_commands_the_consensus_velocity():
+    pose = [[-2.0, 0.0, 0.0], [2.0, 1.0, 1.0], [0.0, -3.0, -2.0]]
+    view = HandView(["a", "b", "c"], pose)
+    beh = BehaviourManager(view)
+    run = beh.start("rendezvous", ["a", "b", "c"], {"gain": 0.05, "w_separation": 0.0, "max_speed": 0.3})
+    assert sorted(r for r, _ in view.released) == ["a", "b", "c"]
+    assert [e[1] for e in view.events] == ["behaviour_started"] and beh.owner("a") == f"behaviour:{run.id}"
+    cmd = beh.commands(0.0)
+    p = np.array(pose)
+    h = np.column_stack([np.cos(p[:, 2]), np.sin(p[:, 2])])
+    pts = p[:, :2] + OFFSET * h
+    want = 0.05 * 3 * (pts.mean(axis=0) - pts)  # k·n·(c − p_i) on the complete graph
+    want *= min(1.0, 0.3 / float(np.hypot(*want.T).max()))  # one factor for all: the centroid stays put
+    for i, n in enumerate("abc"):  # the unicycle command moves the tracked point at exactly that velocity
+        v, w = cmd[n]
+        u = v * h[i] + OFFSET * w * np.array([-h[i, 1], h[i, 0]])
+        np.testing.assert_allclose(u, want[i], atol=1e-9)
+    assert beh.avoidance_group("a") == int(run.id[1:])  # it keeps its robots apart itself
 
 
 # ---- the view's arrays ----------------------------------------------------------------------------------------

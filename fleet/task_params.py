@@ -222,8 +222,7 @@ def _in_world(m: TaskParams, bounds: validation.Bounds, where: str) -> None:
         outline = validation.polygon(f"{where}.polygon", m.polygon, bounds)
         for i, h in enumerate(m.holes):
             validation.polygon(f"{where}.holes[{i}]", h, bounds)
-        # lanes at the pass spacing, not the tool width: overlap 0.9 makes ten times as many
-        validation.coverage(outline, m.tool_width * (1.0 - m.overlap))
+        validation.coverage(outline, m.tool_width, m.overlap)  # overlap 0.9 makes ten times the lanes
 
 
 def _point(field: str, p: PoseIn | WaypointIn, bounds: validation.Bounds) -> None:

@@ -61,3 +61,29 @@ async def test_a_wrong_field_or_type_names_the_valid_ones(client: Client, servic
     ]})
     assert sorted(a["request"] for a in plan["result"]["assignments"]) == ["a", "b", "c"]
     assert service.list_tasks() == []  # a dry run submits nothing
+
+
+def _free_objects(node: Any, path: str) -> list[str]:
+    """Places in a schema that accept an object without saying its keys: a free-form dict."""
+    out: list[str] = []
+    if isinstance(node, dict):
+        keyed = {"properties", "propertyNames", "oneOf", "anyOf", "$ref"} & set(node)
+        if node.get("type") == "object" and not keyed:
+            out.append(path)
+        if node.get("additionalProperties") not in (None, False):
+            out.append(f"{path} (additionalProperties)")
+        for k, v in node.items():
+            out += _free_objects(v, f"{path}/{k}")
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            out += _free_objects(v, f"{path}[{i}]")
+    return out
+
+
+@pytest.mark.anyio
+async def test_no_tool_takes_a_free_form_dict(client: Client) -> None:
+    """Every config/params/settings/options argument of every tool is typed (its keys are in the schema)."""
+    free = [f"{name}{p}" for name, schema in (await _schemas(client)).items() for p in _free_objects(schema, "")]
+    # the task spec's `params` is given per type by the oneOf branches next to it
+    free = [p for p in free if not p.endswith("/properties/params")]
+    assert not free, free

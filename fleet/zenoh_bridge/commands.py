@@ -173,9 +173,9 @@ class Commands:
         if isinstance(out, bytes):
             reply.ok(out)
             return
-        fut = out.future
-        self.deadlines.at(received + self.budget, lambda: self._expire(reply, fut))
-        fut.add_done_callback(lambda f: self._hand_back(reply, f, out.encode))
+        reply.future = out.future
+        self.deadlines.at(received + self.budget, lambda: self._expire(reply))
+        out.future.add_done_callback(lambda f: self._hand_back(reply, f, out.encode))
 
     def _hand_back(self, reply: Reply, fut: Future[Any], encode: Callable[[Any], bytes]) -> None:
         """Sim thread (or whoever completed the future): encoding and sending are the pool's work."""
@@ -191,9 +191,10 @@ class Commands:
         except Exception as exc:
             self._fail(reply, exc)
 
-    def _expire(self, reply: Reply, fut: Future[Any]) -> None:
+    def _expire(self, reply: Reply) -> None:
         """Deadline thread: the world has not answered within the budget. Still queued: it never runs."""
-        if reply.done:
+        fut = reply.future
+        if reply.done or fut is None:
             return
         err = overdue(self.budget, fut.cancel(), self.service.health.command)
         if reply.error(err):

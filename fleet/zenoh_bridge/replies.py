@@ -40,30 +40,35 @@ class Reply:
     """One query's single answer. Thread-safe: the worker, the sim thread's completion and the deadline race."""
 
     def __init__(self, query: zenoh.Query, key: str, now: Callable[[], float]) -> None:
-        self.query, self.key, self._now = query, key, now
+        self.query: zenoh.Query | None = query
+        self.key, self._now = key, now
+        self.future: Future[Any] | None = None  # the sim work, while it may still be cancelled
         self._lock = threading.Lock()
         self.done = False
 
-    def _claim(self) -> bool:
+    def _claim(self) -> zenoh.Query | None:
         with self._lock:
-            first, self.done = not self.done, True
-            return first
+            query, self.query, self.future, self.done = self.query, None, None, True
+            return query  # None: answered already; the result is not kept until the deadline passes
 
     def ok(self, payload: bytes) -> None:
-        if self._claim():
-            try:
-                self.query.reply(self.key, payload, encoding=JSON)
-            finally:
-                self.query.drop()
+        if (query := self._claim()) is not None:
+            _send(query, self.key, lambda: query.reply(self.key, payload, encoding=JSON))
 
     def error(self, exc: FleetError) -> bool:
-        if not self._claim():
+        if (query := self._claim()) is None:
             return False
-        try:
-            self.query.reply_err(encode_error(exc, self._now(), key=self.key), encoding=JSON)
-        finally:
-            self.query.drop()
+        _send(query, self.key, lambda: query.reply_err(encode_error(exc, self._now(), key=self.key), encoding=JSON))
         return True
+
+
+def _send(query: zenoh.Query, key: str, send: Callable[[], None]) -> None:
+    try:
+        send()
+    except Exception:  # e.g. the session closed: nothing to tell the caller, say it here
+        log.exception("reply to query %s failed", key)
+    finally:
+        query.drop()
 
 
 def overdue(budget: float, cancelled: bool, running: str | None) -> FleetError:

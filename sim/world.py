@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from sim import world_sensors
 from sim.drive import integrate_unicycle, limit_twist, wheel_speeds
 from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.kinematic_collisions import RawContact, resolve_kinematic_collisions
@@ -21,7 +22,6 @@ from sim.ray_backends import RayBackends, cast_pybullet
 from sim.robot_body import RobotBody
 from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
 from sim.robot_table import RobotTable
-from sim import world_sensors
 from sim.sensors.inertial import imu_reading, odometry_reading
 from sim.sensors.lidar import LidarConfig
 from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading, LidarScan, OdometryReading, Pose2D

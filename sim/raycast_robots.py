@@ -24,6 +24,7 @@ from sim import raycast_exact as exact
 from sim.raycast_shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
 
 CLOSED_FORM = (BOX, MESH, SPHERE, CYLINDER, CAPSULE)  # kinds intersected here; others go to an Embree build
+EVEN_TOL = 1e-7  # rad: headings this close to an even spacing count as evenly spaced (intervals widen by it)
 RUN_BREAK = 0.25  # m: consecutive rays whose origins are farther apart start a new group
 TWO_PI = 2 * np.pi
 
@@ -103,6 +104,9 @@ class RayGroups:
     offset: np.ndarray  # (G,) farthest ray line from the centre (~0 for a lidar's beams: they share a centre)
     outward: np.ndarray  # (G,) least (origin − centre)·heading: how far every ray starts out past the centre
     reach: float  # longest horizontal extent of any ray
+    first: np.ndarray  # (G,) position of the group's first ray in `keys`
+    count: np.ndarray  # (G,)
+    step: np.ndarray  # (G,) heading step of a group whose rays are evenly spaced in heading (a lidar), else 0
 
 
 def group_rays(o: np.ndarray, d: np.ndarray) -> RayGroups:
@@ -124,13 +128,37 @@ def group_rays(o: np.ndarray, d: np.ndarray) -> RayGroups:
     heading = np.arctan2(dy, dx)
     ref = heading[start]  # headings count from the group's first ray: a lidar's beams are then in order
     keys = g * 8.0 + (heading - ref[g]) % TWO_PI
+    step = np.zeros(len(start))
+    first = start
     if np.all(keys[1:] >= keys[:-1]):
         order = np.arange(len(o))
+        # Evenly spaced headings (a lidar's beams): a heading interval maps to indices without a search.
+        many = count > 1
+        step[many] = keys[start[many] + 1] - keys[start[many]]
+        local = keys - g * 8.0 - (np.arange(len(o)) - start[g]) * step[g]
+        step[np.maximum.reduceat(np.abs(local), start) > EVEN_TOL] = 0.0
     else:
         order = np.argsort(keys, kind="stable")
         keys = keys[order]
+        first = np.searchsorted(keys, np.arange(len(start)) * 8.0)  # groups keep their rays, now by heading
     return RayGroups(order, keys, ref, np.column_stack([cx, cy]), np.sqrt(np.maximum.reduceat(r2, start)),
-                     np.maximum.reduceat(line, start), np.minimum.reduceat(out, start), float(length.max()))
+                     np.maximum.reduceat(line, start), np.minimum.reduceat(out, start), float(length.max()),
+                     first, count, step)
+
+
+def _ranges(rg: RayGroups, gi: np.ndarray, a0: np.ndarray, a1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions [start, end) in `rg.keys` of group gi's rays with local heading in [a0, a1] (a superset)."""
+    step, first, count = rg.step[gi], rg.first[gi], rg.count[gi]
+    even = step > 0
+    safe = np.where(even, step, 1.0)
+    lo = first + np.clip(np.ceil((a0 - EVEN_TOL) / safe), 0, count).astype(np.int64)
+    hi = first + np.clip(np.floor((a1 + EVEN_TOL) / safe) + 1, 0, count).astype(np.int64)
+    odd = np.flatnonzero(~even)
+    if odd.size:
+        base = gi[odd] * 8.0
+        lo[odd] = np.searchsorted(rg.keys, base + a0[odd], side="left")
+        hi[odd] = np.searchsorted(rg.keys, base + a1[odd], side="right")
+    return lo, hi
 
 
 def _pairs(rg: RayGroups, xy: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray]:
@@ -156,7 +184,6 @@ def _pairs(rg: RayGroups, xy: np.ndarray, rho: float) -> tuple[np.ndarray, np.nd
         half = np.where(near, np.pi, np.arcsin(np.clip(width / np.where(near, 1.0, dist), 0.0, 1.0)))
     mid = (np.arctan2(v[:, 1], v[:, 0]) - rg.ref[gi]) % TWO_PI
     lo, hi = mid - half, mid + half
-    base = gi * 8.0
     # The heading interval, cut at 0 / 2π into a main part and (rarely) a wrapped part.
     a0 = np.where(near, 0.0, np.clip(lo, 0.0, TWO_PI))
     a1 = np.where(near, TWO_PI, np.clip(hi, 0.0, TWO_PI))
@@ -164,8 +191,7 @@ def _pairs(rg: RayGroups, xy: np.ndarray, rho: float) -> tuple[np.ndarray, np.nd
     lo_w, hi_w = lo[wrap], hi[wrap]
     w0 = np.where(lo_w < 0, lo_w + TWO_PI, 0.0)
     w1 = np.where(lo_w < 0, TWO_PI, hi_w - TWO_PI)
-    starts = np.searchsorted(rg.keys, np.concatenate([base + a0, base[wrap] + w0]), side="left")
-    ends = np.searchsorted(rg.keys, np.concatenate([base + a1, base[wrap] + w1]), side="right")
+    starts, ends = _ranges(rg, np.concatenate([gi, gi[wrap]]), np.concatenate([a0, w0]), np.concatenate([a1, w1]))
     robots = np.concatenate([rj, rj[wrap]])
     counts = np.maximum(ends - starts, 0)
     total = int(counts.sum())

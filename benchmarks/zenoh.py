@@ -3,7 +3,6 @@
     .venv/bin/python benchmarks/zenoh.py            # 100 robots, 10 agents × 10 robots at 10 Hz, 20 s windows
     .venv/bin/python benchmarks/zenoh.py --quick    # 20 robots, 2 agents, 5 s windows
     .venv/bin/python benchmarks/zenoh.py --lifecycle [--quick]  # agents' leases, rates, hung agents (issue 19)
-    .venv/bin/python benchmarks/zenoh.py --stages --pacing step,early  # issue 17: the sim-loop pacing before / now
 
 Two windows on the same world, one after the other, with the same command load:
   baseline  the commands enter in-process (FleetService.submit → safety envelope), no Zenoh at all;
@@ -11,11 +10,10 @@ Two windows on the same world, one after the other, with the same command load:
             subscriber process receives every robot's odom and scan.
 Figures: command-to-applied latency p50/p99 (agent's send → the physics step that applies it: since issue 17 a
 command reaches the world's command when the sim thread drains it, before the next physics step, not at the
-10 Hz control tick; since issue 17a, with `--pacing early`, a waiting command's physics step runs at once, the sim
-leading wall time by at most one step, instead of at that step's wall time), per stage (send → bridge receive →
-envelope → applied, `--stages`), dropped commands (sent − received, target 0), publish rate sustained (readings
-the world produced vs published vs received), CPU (cores busy) per process. The machine is shared: the load
-average is printed with the figures.
+10 Hz control tick), per stage (send → bridge receive → envelope → applied, `--stages`), dropped commands
+(sent − received, target 0), publish
+rate sustained (readings the world produced vs published vs received), CPU (cores busy) per process. The
+machine is shared: the load average is printed with the figures.
 
 Roles (the script starts itself in other processes): --role agents | subscriber.
 """
@@ -291,10 +289,6 @@ def main() -> None:
                     help="comma-separated lidar phase policies, one whole measurement each, in this order: 'spread' "
                          "(each physics step casts ~1/10 of the fleet's lidars) and/or 'aligned' (all in one step, "
                          "the behaviour before issue 17b)")
-    ap.add_argument("--pacing", default="step,early",
-                    help="comma-separated sim-loop pacings, one whole measurement each, in this order: 'early' (a "
-                         "waiting command's physics step runs at once, the sim ≤ one step ahead; issue 17a) and/or "
-                         "'step' (every step waits for its wall time: the pacing before)")
     a = ap.parse_args()
     if a.role == "agents":
         return role_agents(a.connect, a.robots.split(","), a.per_agent, float(a.duration), a.tag)
@@ -305,22 +299,20 @@ def main() -> None:
     procs = 1 if a.quick else 2
     runs: dict[str, Any] = {}
     for phases in a.lidar_phases.split(","):
-        for pacing in a.pacing.split(","):
-            with tempfile.TemporaryDirectory() as tmp:
-                svc = make_service(n, a.beams, Path(tmp), phases)
-                svc.clock.early_for_commands = pacing == "early"
-                names = list(svc.snapshot.names)
-                svc.start("realtime", 1.0)
-                try:
-                    base = baseline(svc, names, a.per_agent, duration)
-                    zen = over_zenoh(svc, names, a.per_agent, duration, procs)
-                finally:
-                    svc.close()
-            print(f"\n==== lidar phases: {phases}, pacing: {pacing}")
-            report(n, a.beams, a.per_agent, duration, procs, base, zen)
-            if a.stages:
-                report_stages(base, zen)
-            runs[f"{phases}/{pacing}"] = {"baseline": base, "zenoh": zen, "load": os.getloadavg()}
+        with tempfile.TemporaryDirectory() as tmp:
+            svc = make_service(n, a.beams, Path(tmp), phases)
+            names = list(svc.snapshot.names)
+            svc.start("realtime", 1.0)
+            try:
+                base = baseline(svc, names, a.per_agent, duration)
+                zen = over_zenoh(svc, names, a.per_agent, duration, procs)
+            finally:
+                svc.close()
+        print(f"\n==== lidar phases: {phases}")
+        report(n, a.beams, a.per_agent, duration, procs, base, zen)
+        if a.stages:
+            report_stages(base, zen)
+        runs[phases] = {"baseline": base, "zenoh": zen, "load": os.getloadavg()}
     if a.json:
         a.json.write_text(json.dumps({"robots": n, "beams": a.beams, "runs": runs}, indent=1, default=str),
                           encoding="utf-8")

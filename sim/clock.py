@@ -26,7 +26,6 @@ class Clock:
     def __init__(self, mode: ClockMode = ClockMode.PAUSED, speed: float = 1.0) -> None:
         self.mode = mode
         self.speed = speed
-        self.early_for_commands = True  # steps_due(early=True) may step ahead; False: the pacing before issue 17
         self._anchor_wall = time.perf_counter()
         self._anchor_sim = 0.0
 
@@ -55,8 +54,8 @@ class Clock:
             return max_steps
         target = self._anchor_sim + (time.perf_counter() - self._anchor_wall) * self.speed
         owed = int((target - world.time) / world.dt)
-        if early and self.early_for_commands and owed == 0 and world.time <= target:
-            owed = 1  # not ahead yet: after this step, at most one step ahead
+        if early and owed == 0 and world.time <= target:  # not ahead yet: after this step, ≤ one step ahead
+            owed = 1
         return max(0, min(owed, max_steps))
 
     def seconds_until_next_step(self, world: World) -> float:

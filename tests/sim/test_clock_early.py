@@ -34,15 +34,6 @@ def test_early_step_leads_by_at_most_one_step(wall: list[float]) -> None:
         assert c.steps_due(w) == c.steps_due(w, early=True) == 3
 
 
-def test_early_off_keeps_every_step_at_its_wall_time(wall: list[float]) -> None:
-    with World(physics_hz=100.0) as w:
-        c = Clock()
-        c.early_for_commands = False
-        c.set_mode(ClockMode.REALTIME, w)
-        wall[0] += 0.004
-        assert c.steps_due(w, early=True) == 0
-
-
 def test_early_has_no_effect_when_paused_or_fast(wall: list[float]) -> None:
     with World(physics_hz=50.0) as w:
         c = Clock()

@@ -253,9 +253,8 @@ class ServiceCore:
                       if failures else f"{type(exc).__name__}: {str(exc)[:200]}")
 
     def _loop_once(self) -> None:
-        pending = not self._queue.empty()  # a command waits: its physics step may run now (Clock.steps_due)
         self._drain()
-        steps = self.clock.steps_due(self.world, max_steps=self._steps_per_control, early=pending)
+        steps = self.clock.steps_due(self.world, max_steps=self._steps_per_control)
         if steps == 0:
             wait = None if self.clock.mode is ClockMode.PAUSED else self.clock.seconds_until_next_step(self.world)
             self._wake.wait(timeout=min(wait, 0.5) if wait is not None and wait >= 0 else 0.5)

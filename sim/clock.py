@@ -42,20 +42,14 @@ class Clock:
         self.mode = mode
         self._anchor_wall, self._anchor_sim = time.perf_counter(), world.time
 
-    def steps_due(self, world: World, max_steps: int = 1000, *, early: bool = False) -> int:
-        """How many steps to take now: all the sim time owed at `speed` in REALTIME, `max_steps` in FAST.
-        With `early` (a command is waiting for its physics step), REALTIME may also take the next step before
-        its wall time comes: the sim then leads wall time by at most one step, and the steps after it wait
-        that much longer, so the rate stays `speed` while the command is applied now rather than up to a
-        step later."""
+    def steps_due(self, world: World, max_steps: int = 1000) -> int:
+        """How many steps to take now: all the sim time owed at `speed` in REALTIME, `max_steps` in FAST."""
         if self.mode is ClockMode.PAUSED:
             return 0
         if self.mode is ClockMode.FAST:
             return max_steps
         target = self._anchor_sim + (time.perf_counter() - self._anchor_wall) * self.speed
         owed = int((target - world.time) / world.dt)
-        if early and owed == 0 and world.time <= target:  # not ahead yet: after this step, ≤ one step ahead
-            owed = 1
         return max(0, min(owed, max_steps))
 
     def seconds_until_next_step(self, world: World) -> float:

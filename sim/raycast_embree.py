@@ -176,6 +176,9 @@ class EmbreeCaster:
 
     def __init__(self, world: World) -> None:
         self.world = world
+        # False: upright robots are built as triangles into a scene every cast (the approach before issue 17a,
+        # kept as the benchmarks' same-run baseline and for robot shapes the closed form does not cover).
+        self.closed_form = True
         self._static: _Geometry | None = None
         self._static_key: tuple[object, ...] | None = None
         self._templates: dict[tuple[int, str], list[Shape]] = {}
@@ -272,7 +275,7 @@ class EmbreeCaster:
         physics = bool((~kin).any()) or w.models.has_dynamic_models()
         if len(t) and not physics:
             for shapes, rows, plan_r in self._upright_groups():
-                if robots.supported(shapes):
+                if self.closed_form and robots.supported(shapes):
                     continue  # cast in closed form (_closed_form_groups)
                 if rays is not None and not computed:
                     reach, computed = self._reach(*rays), True
@@ -316,7 +319,7 @@ class EmbreeCaster:
         """(closed-form shapes, table rows) of the upright robots cast without a BVH; none under physics."""
         w = self.world
         t = w.table
-        if not len(t) or bool((~t.b["kinematic"]).any()) or w.models.has_dynamic_models():
+        if not self.closed_form or not len(t) or bool((~t.b["kinematic"]).any()) or w.models.has_dynamic_models():
             return []
         out = []
         for shapes, rows, _ in self._upright_groups():

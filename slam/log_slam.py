@@ -25,7 +25,9 @@ from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
 from slam.mapping import OccupancyMapper
+from slam.motion_prior import predicted_step
 from slam.pose_graph import PoseGraph
+from slam.surface_fill import fill_surfaces
 
 
 def thin(points: np.ndarray, spacing: float) -> np.ndarray:
@@ -91,8 +93,8 @@ class LogSlam:
         has_odom = odom_valid and o is not None and self.odometry[-1] is not None
         if has_odom:
             delta = se2_between(self.odometry[-1], o)  # type: ignore[arg-type]
-        else:  # no odometry: constant velocity (the previous step) seeds the wide window
-            delta = se2_between(self.poses[-2], prev) if i >= 2 else (0.0, 0.0, 0.0)
+        else:  # no odometry: the motion prior (constant velocity) seeds the wide window
+            delta = predicted_step(self.poses, cfg.motion_prior.constant_velocity)
         guess = se2_compose(prev, delta)
         matched, cov = self._match(pts, guess, has_odom, delta)
         if matched is None:
@@ -142,7 +144,8 @@ class LogSlam:
         if wide:
             res = search(grid, subsample(pts, fe.wide_points), guess, window_xy=fe.wide_window_xy,
                          window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
-                         max_range_for_step=5.0)
+                         max_range_for_step=5.0, prior_weight_xy=self.config.motion_prior.weight_xy,
+                         prior_weight_yaw=self.config.motion_prior.weight_yaw)
         if res is None:
             return None, self._odom_cov
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
@@ -185,7 +188,9 @@ class LogSlam:
         idx = np.nonzero(path >= path[-1] - fe.local_map_distance)[0]
         if len(idx) > fe.local_map_scans:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
-        pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])
+        mp = self.config.motion_prior
+        pts = np.vstack([se2.transform_points(self.poses[k], fill_surfaces(
+            self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)) for k in idx])
         pts = thin(pts, fe.resolution / 2)
         self._local = (MatchGrid(pts, fe.resolution, fe.sigma, margin=1.0), IcpTarget.from_points(pts))
         self._local_at, self._local_pose = n - 1, last

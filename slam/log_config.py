@@ -8,6 +8,7 @@ from typing import Literal
 from pydantic import Field
 
 from sim.config import StrictModel
+from slam.hypotheses import HypothesesConfig
 from slam.match_covariance import MatchCovarianceConfig
 from slam.motion_prior import MotionPriorConfig
 from slam.types import MappingConfig
@@ -89,6 +90,7 @@ class LogSlamConfig(StrictModel):
     frontend: FrontEndConfig = FrontEndConfig()
     motion_prior: MotionPriorConfig = MotionPriorConfig()
     match_covariance: MatchCovarianceConfig = MatchCovarianceConfig()
+    hypotheses: HypothesesConfig = HypothesesConfig()
     loops: LoopConfig = LoopConfig()
     mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes
     final_batch: bool = Field(False, description="also a batch Levenberg-Marquardt pass over the whole graph at "

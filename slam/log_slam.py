@@ -21,6 +21,7 @@ from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.csm import MatchGrid, search
+from slam.hypotheses import WideSearch, decide
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
@@ -72,6 +73,7 @@ class LogSlam:
         self._local_at = -1  # node index the local map was last built at
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
         self._local_filled = False
+        self._next_scan: LidarScan | None = None
         self.loops = LoopFinder(cfg.loops, self)
         fe = cfg.frontend
         self._edge_floor = np.diag([fe.sigma_floor_xy ** 2, fe.sigma_floor_xy ** 2, fe.sigma_floor_yaw ** 2])
@@ -81,9 +83,12 @@ class LogSlam:
 
     # ---- per scan ------------------------------------------------------------------------------------
 
-    def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True) -> Pose2D:
+    def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True,
+                 lookahead: LidarScan | None = None) -> Pose2D:
+        """`lookahead`: the next scan, if known (a log), to settle a weak wide match (`slam.hypotheses`)."""
         t0, c0 = time.perf_counter(), time.process_time()
         cfg = self.config
+        self._next_scan = lookahead
         pts, no_ret = self._preprocess(scan)
         o = odom.as_tuple() if odom is not None else None
         i = len(self.poses)
@@ -154,6 +159,14 @@ class LogSlam:
         if res is None or (wide and at_window_edge(res.pose, guess, fe.wide_window_xy, fe.wide_window_yaw,
                                                    grid.resolution, math.radians(2))):
             return None, self._odom_cov
+        if wide and self._next_scan is not None:
+            mp = self.config.motion_prior
+            ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
+            nxt = subsample(self._preprocess(self._next_scan)[0], fe.wide_points)
+            res = decide(grid, subsample(pts, fe.wide_points), res, self.poses[-1], guess, nxt, ws,
+                         self.config.hypotheses)
+            if res is None:
+                return None, self._odom_cov
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
                   inlier_distance=fe.icp_max_correspondence, range_sigma=fe.icp_range_sigma)
         pose = fit.pose

@@ -178,7 +178,7 @@ class LogSlam:
             self.stats.matched += 1
         info = fit.information + 1e-9 * np.eye(3)
         if wide:  # a second peak nearly as good (a corridor): the edge is weak along it
-            amb = ambiguous_covariance(grid, sub, pose,
+            amb = ambiguous_covariance(grid, subsample(pts, fe.wide_points), pose,
                                        fe.wide_window_xy, fe.wide_window_yaw, self.config.match_covariance)
             if amb is not None:
                 self.stats.ambiguous += 1

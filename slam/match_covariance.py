@@ -27,7 +27,7 @@ from slam.csm import MatchGrid, _lookup
 
 class MatchCovarianceConfig(StrictModel):
     enabled: bool = True
-    step: float = Field(0.1, gt=0, description="translation lattice of the score surface, m")
+    step: float = Field(0.15, gt=0, description="translation lattice of the score surface, m")
     yaw_step: float = Field(0.02, gt=0, description="rotation lattice, rad")
     delta: float = Field(0.05, gt=0, lt=1, description="poses scoring within this of the best are plausible "
                          "(mean hit likelihood)")

@@ -47,7 +47,7 @@ def test_corridor_match_is_degenerate_along_it() -> None:
     cfg = MatchCovarianceConfig()
     pose = (0.0125, 0.0125, 0.0)  # a cell centre: every lattice shift along x scores the same
     cov = score_covariance(grid, scan, pose, 2.5, 0.3, cfg)
-    n = round(2.5 / cfg.step)  # every shift k·step (|k| ≤ n) along the corridor is as good: E[k²]·step²
+    n = math.floor(2.5 / cfg.step)  # every shift k·step (|k| ≤ n) along the corridor is as good: E[k²]·step²
     assert cov[0, 0] == pytest.approx(cfg.step ** 2 * n * (n + 1) / 3, rel=1e-6)
     assert math.sqrt(cov[1, 1]) < 0.05 and math.sqrt(cov[2, 2]) < 0.05
     # in the edge frame of a pose facing along +y (yaw 90°) the corridor (world x) is the edge's y axis

@@ -1,6 +1,7 @@
 """SLAM without odometry (Radish orebro-like keyframe logs): same-surface gap filling, the score-surface
 covariance of a correlative match (degenerate along a corridor, closed form), the motion prior, and a
-simulated log with no odometry at all, scans 1 m apart, mapped within a stated ATE."""
+simulated log with no odometry at all, scans 1 m apart, mapped within a stated ATE; a weak wrong wide match
+settled by the next scan."""
 
 from __future__ import annotations
 
@@ -10,14 +11,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from slam.csm import MatchGrid
+from sim.transforms import se2_compose
+from sim.types import Pose2D
+from slam import se2
+from slam.csm import CsmResult, MatchGrid
+from slam.hypotheses import HypothesesConfig, WideSearch, decide
 from slam.log_config import LogSlamConfig
 from slam.log_eval import evaluate
 from slam.log_run import load_log, run_slam
 from slam.match_covariance import MatchCovarianceConfig, ambiguous_covariance, score_covariance
 from slam.motion_prior import at_window_edge, predicted_step
 from slam.surface_fill import fill_surfaces
-from tests.slam import carmen_synth
+from tests.slam import carmen_synth, synth
 
 
 def test_fill_surfaces_walls_not_depth_jumps() -> None:
@@ -94,3 +99,33 @@ def test_log_without_odometry_is_mapped(tmp_path: Path) -> None:
     ate = float(evaluate(est, log.reference)["ate_rmse"])  # type: ignore[arg-type]
     assert ate < 0.05, ate
     assert slam.stats.wide == len(truth) - 1 - slam.stats.odometry_only
+
+
+def _points(pose: Pose2D) -> np.ndarray:
+    s = synth.raycast(carmen_synth.SEGS, pose, beams=360, max_range=10.0)
+    a = s.angles()
+    ok = np.isfinite(s.ranges)
+    return np.column_stack([s.ranges[ok] * np.cos(a[ok]), s.ranges[ok] * np.sin(a[ok])])[::3]
+
+
+def test_a_weak_wrong_match_is_settled_by_the_next_scan() -> None:
+    # the room mapped from three poses; scan k truly 1 m further along x, scan k+1 1 m beyond. The wide search
+    # "found" scan k turned 70° (a weak, wrong match); the prediction (1 m on) is right, and the next scan
+    # matches from it, not from the wrong turn.
+    poses = [Pose2D(4.0 + 0.5 * i, 3.0, 0.0) for i in range(3)]
+    world = np.vstack([se2.transform_points(p.as_tuple(), _points(p)) for p in poses])
+    grid = MatchGrid(world, 0.05, 0.07, margin=3.0)
+    prev = poses[-1].as_tuple()
+    truth, nxt = Pose2D(6.0, 3.0, 0.0), Pose2D(7.0, 3.0, 0.0)
+    pts, next_pts = _points(truth), _points(nxt)
+    wrong = (6.0, 3.0, 1.2)
+    best = CsmResult(wrong, grid.score(wrong, pts), 0)
+    assert best.score < grid.score(truth.as_tuple(), pts)  # (a real search would not pick it: staged)
+    wide = WideSearch(2.5, math.radians(85), 0.25, 0.01, 0.01)
+    guess = se2_compose(prev, (1.0, 0.0, 0.0))
+    out = decide(grid, pts, best, prev, guess, next_pts, wide, HypothesesConfig())
+    assert out is not None
+    assert math.hypot(out.pose[0] - 6.0, out.pose[1] - 3.0) < 0.1 and abs(out.pose[2]) < 0.05
+    # a match scoring above `below` is kept as it is (no second hypothesis)
+    assert decide(grid, pts, best, prev, guess, next_pts, wide, HypothesesConfig(below=best.score)) is best
+    assert decide(grid, pts, best, prev, guess, None, wide, HypothesesConfig()) is best

@@ -58,6 +58,9 @@ class NavigatorConfig(StrictModel):
                                    "progress (nav2's progress checker), as exploring lengthens the route, m")
     clear_radius: float = Field(1.0, ge=0, description="with sensors/both: the 'clear costmap' recovery forgets "
                                 "the scans only this close to the robot; the rest is the map it has built, m")
+    block_horizon: float = Field(2.0, gt=0, description="with sensors/both: a newly seen obstacle this close "
+                                 "along the path replans at once; farther ones every block_replan_s, m")
+    block_replan_s: float = Field(1.0, gt=0, description="see block_horizon, s")
 
 
 def make_navigator(config: NavigatorConfig, *, costmap: Costmap, spec: RobotSpec) -> Navigator:
@@ -99,7 +102,8 @@ class Navigator:
                  yaw_tolerance: float = 0.1, off_path_distance: float = 0.5, progress_timeout_s: float = 10.0,
                  min_progress: float = 0.1, max_recoveries: int = 4, timeout_s: float | None = None,
                  replan_period_s: float | None = None, map_source: str = "prior",
-                 sense_period_s: float = 0.2, progress_radius: float = 0.5, clear_radius: float = 1.0) -> None:
+                 sense_period_s: float = 0.2, progress_radius: float = 0.5, clear_radius: float = 1.0,
+                 block_horizon: float = 2.0, block_replan_s: float = 1.0) -> None:
         self.planner, self.costmap, self.controller = planner, costmap, controller
         self.safety, self.recovery = safety, recovery
         self.max_v, self.max_a, self.max_w, self.max_lat = max_v, max_a, max_w, max_lat_accel
@@ -110,6 +114,7 @@ class Navigator:
         self.sensing = map_source != "prior"  # the costmap learns from every scan, not only at replans
         self.sense_period, self._t_sensed = sense_period_s, -math.inf
         self.progress_radius, self.clear_radius = progress_radius, clear_radius
+        self.block_horizon, self.block_replan_s = block_horizon, block_replan_s
         self.plans: list[PlanResult] = []  # every plan made for the current goal (for diagnostics)
         self.events: list[tuple[float, str]] = []  # (sim time, why) of every replan and recovery
         self._start(0.0, None, None, False)
@@ -263,7 +268,11 @@ class Navigator:
         if self._ref is not None and self._pending is None and self._state is NavState.TRACKING:
             i = int(np.searchsorted(self._ref.s, self._ref_s))
             ahead = np.column_stack([self._ref.x[i:], self._ref.y[i:]])
-            if len(ahead) and not self.costmap.is_free_many(ahead).all():
+            blocked = np.flatnonzero(~self.costmap.is_free_many(ahead)) if len(ahead) else ahead[:0, 0]
+            # Near: replan now. Farther: at most once per block_replan_s — the optimistic route grazes the edge
+            # of walls still being discovered, and replanning every scan for a wall metres away only dithers.
+            if blocked.size and (self._ref.s[i + int(blocked[0])] - self._ref.s[i] <= self.block_horizon
+                                 or now - self._last_plan_t >= self.block_replan_s):
                 self._pending = "a newly seen obstacle blocks the path"
 
     def _watch(self, now: float, dt: float, twist: tuple[float, float], out: ControlOutput, pose: Pose2D) -> None:

@@ -180,7 +180,7 @@ class Commands:
             snap = svc.snapshot
             return encode_fleet_state(snap, self.gate.tick_of(snap.step_count))
         if key == k.fleet("map"):
-            grid = self._on_sim(svc.static_grid)
+            grid = self._on_sim(svc.prior_map)  # refused under a graded run's `map_source: sensors` rule
             return encode_map(svc.snapshot.time, grid.data, grid.resolution, grid.origin)
         if key == k.fleet("tasks"):
             tq = decode(TasksReq, payload, key)

@@ -42,3 +42,23 @@ def test_under_a_sensors_rule_the_agent_is_refused_the_map_and_navigate_uses_onl
         assert svc.nav_config().map_source == "sensors"  # a `navigate` the agent asks for plans on the lidar only
         cm = svc.call(lambda: svc.costmap_for("r1"))
         assert not cm.lethal_mask[cm.grid.world_to_cell(0.0, 1.5)]  # barrier_north, not seen from the start
+
+
+def test_under_a_sensors_rule_the_live_view_publishes_no_map():
+    """The live view's port is as reachable as the bridge's for a process on this machine: no /map either."""
+    import foxglove
+
+    from fleet import FleetConfig, FleetService
+    from fleet.recording.publisher import FoxglovePublisher
+
+    for rule, maps in ((None, 1), ("challenge maze", 0)):
+        svc = FleetService(FleetConfig(world="robot_arena", seed=1))
+        try:
+            if rule is not None:
+                svc.withhold_prior_map(rule)
+            pub = FoxglovePublisher(svc, foxglove.Context())
+            svc.step(20)
+            assert pub.counts["/map"] == maps
+            pub.close()
+        finally:
+            svc.close()

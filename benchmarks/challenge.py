@@ -9,9 +9,10 @@ ceiling is 0.5 (reaching the goal within 2·T_opt).
 
     .venv/bin/python benchmarks/challenge.py            # cluttered_1..5 + arena_course, 3 runs each
     .venv/bin/python benchmarks/challenge.py --quick    # cluttered_1, cluttered_5; 1 run each
-    .venv/bin/python benchmarks/challenge.py --map-source sensors  # builtins on their own lidar only
+    .venv/bin/python benchmarks/challenge.py --map-source prior  # the rule for known maps, for comparison
 
-The builtins navigate on the challenge's `map_source` (default prior: the world's obstacles) unless told.
+Every contestant runs under the challenge's `map_source` rule (default sensors: the builtins navigate on their
+own lidar, and the goal seeker is refused the world's map, so it seeks the goal reactively) unless told.
 """
 
 from __future__ import annotations
@@ -34,10 +35,12 @@ SEEKER = (f"python {ROOT / 'examples' / 'goal_seeker.py'} --connect {{connect}} 
           "--goal {goal_x} {goal_y} --lockstep")
 
 
-def grade(challenge: str, who: str, runs: int, out: Path, map_source: str) -> tuple[ChallengeReport, float]:
+def grade(challenge: str, who: str, runs: int, out: Path, map_source: str | None) -> tuple[ChallengeReport, float]:
     t0 = time.perf_counter()
     agent, controller = (SEEKER, None) if who == "goal_seeker" else (None, f"builtin:{who}")
-    ch = load_challenge(challenge).model_copy(update={"map_source": map_source})
+    ch = load_challenge(challenge)
+    if map_source is not None:
+        ch = ch.model_copy(update={"map_source": map_source})
     report = run_challenge(ch, agent=agent, controller=controller, runs=runs, out_dir=out / challenge / who)
     return report, time.perf_counter() - t0
 
@@ -45,14 +48,22 @@ def grade(challenge: str, who: str, runs: int, out: Path, map_source: str) -> tu
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--map-source", choices=("sensors", "prior", "both"), default="prior",
-                    help="what the builtins' navigator knows (the goal seeker only ever has its Zenoh scans)")
+    ap.add_argument("--map-source", choices=("sensors", "prior", "both"), default=None,
+                    help="the rule for every contestant (default: each challenge's own, sensors for the shipped "
+                    "ones): what a builtin's navigator knows, and whether the goal seeker may ask for the map")
+    ap.add_argument("--challenges", default=None, help="comma-separated names (default: all shipped)")
+    ap.add_argument("--runs", type=int, default=None, help="runs per contestant (default 3, --quick 1)")
+    ap.add_argument("--contestants", default=None, help="comma-separated: goal_seeker and/or builtin names")
     a = ap.parse_args()
     challenges = ["cluttered_1", "cluttered_5"] if a.quick else [f"cluttered_{k}" for k in range(1, 6)] + [
         "arena_course"]
-    runs = 1 if a.quick else 3
-    contestants = ["goal_seeker", *controller_names()]
-    print(f"{len(challenges)} challenges × {runs} run(s); builtins on map_source {a.map_source}; baseline: "
+    if a.challenges:
+        challenges = a.challenges.split(",")
+    runs = a.runs or (1 if a.quick else 3)
+    contestants = a.contestants.split(",") if a.contestants else ["goal_seeker", *controller_names()]
+    rule = a.map_source or "each challenge's own (" + ", ".join(
+        sorted({load_challenge(c).map_source for c in challenges})) + ")"
+    print(f"{len(challenges)} challenges × {runs} run(s); map_source: {rule}; baseline: "
           "goal_seeker (over Zenoh in lock-step)")
     print(f"{'challenge':14s} {'contestant':14s} {'success':>8s} {'score':>7s} {'±':>6s} {'T s':>7s} {'T_opt s':>8s} "
           f"{'SPL':>6s} {'min clr m':>9s} {'jerk':>6s} {'wall s':>7s}")
@@ -71,7 +82,7 @@ def main() -> int:
                       f"{s['spl']['mean']:6.3f} {s['min_clearance']['min']:9.3f} {s['jerk_rms']['mean']:6.2f} "
                       f"{wall:7.1f}", flush=True)
                 failed = [r for r in rep.runs if not r.score.success]
-                for r in failed[:1]:
+                for r in failed:
                     print(f"{'':14s} {'':14s}   run {r.run}: {r.outcome.value}: {r.reason[:90]}")
     print("\nmean over challenges (ceiling 0.5):")
     for who in contestants:

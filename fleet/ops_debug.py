@@ -153,7 +153,7 @@ class DebugOps(ServiceCore):
         def do() -> tuple[bytes, dict[str, Any]]:
             if robot is not None:
                 self.registry.get(robot)
-            source = svc.static_grid() if robot is None else svc.costmap_for(robot)
+            source = svc.prior_map() if robot is None else svc.costmap_for(robot)
             names = self.world.robot_names()
             marks = [(n, self.world.robot_pose(n)) for n in names] if show_robots else []
             goals = [g for g in (_goal_of(t.params) for t in self.tasks.active.values()) if g is not None]

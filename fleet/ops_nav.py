@@ -23,6 +23,26 @@ class NavOps(ServiceCore):
     """Mixed into FleetService."""
 
     _nav_cover: list[tuple[float, float]]  # goals the planning map must cover (it grows for them)
+    _map_rule: str | None = None  # a graded run under `map_source: sensors`: the world's map is withheld
+
+    def withhold_prior_map(self, rule: str) -> None:
+        """A graded run under `map_source: sensors` (`rule` names it): no client gets the world's occupancy map
+        (Zenoh `fleet/map`, MCP get_occupancy_map, the live view's /map), and every navigator of this service
+        (a builtin's, or one an agent starts with `navigate`) knows only what its robot's lidar saw."""
+        self._map_rule = rule
+        self._costmaps.clear()
+
+    def prior_map(self) -> OccupancyGrid:
+        """The world's occupancy map for a client (an agent, a viewer, an MCP tool): refused under a sensors rule."""
+        if self._map_rule is not None:
+            raise FleetError(ErrorCode.UNSUPPORTED, f"the world's occupancy map is withheld: {self._map_rule} runs "
+                             "under the rule map_source: sensors (a graded robot must not read the world file)",
+                             "build a map from the robot's own lidar scans (robot/<name>/scan)")
+        return self.static_grid()
+
+    def map_withheld(self) -> str | None:
+        """The rule that withholds the world's map from clients, if any."""
+        return self._map_rule
 
     def static_grid(self) -> OccupancyGrid:
         """The world rasterised at robot height once per world (shared by every robot's costmap)."""
@@ -72,6 +92,8 @@ class NavOps(ServiceCore):
 
     def nav_config(self, overrides: dict[str, Any] | None = None) -> NavigatorConfig:
         merged = {**self.config.navigation, **(overrides or {})}
+        if self._map_rule is not None:  # under a sensors rule no navigator may read the world's map
+            merged["map_source"] = "sensors"
         try:
             return NavigatorConfig.model_validate(merged)
         except ValidationError as exc:

@@ -34,7 +34,8 @@ def run(
     tick_timeout: float = typer.Option(2.0, "--tick-timeout", min=0.01, help="with --agent: wall s per lock-step "
                                        "tick before the agent counts as hung"),
     map_source: str = typer.Option("sensors", "--map-source",
-                                   help="sensors (lidar only, BARN rules) | prior (the world file) | both"),
+                                   help="sensors (lidar only, BARN rules; an --agent is refused the world's "
+                                   "map) | prior (the world file) | both"),
     margin: float = typer.Option(None, "--margin", min=0.0, help="safety margin footprint↔obstacle, m"),
     runs: int = typer.Option(1, "--runs", min=1, help="runs per world"),
     jobs: int | None = typer.Option(None, "-j", "--jobs", min=1, max=64,

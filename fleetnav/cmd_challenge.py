@@ -41,14 +41,18 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
         retries: int = RETRIES,
         live: bool = typer.Option(False, "--live", help="Foxglove live view of each run in turn, paced at --speed"),
         port: int = typer.Option(8765, "--port", help="live view port"),
-        speed: float = typer.Option(1.0, "--speed", min=0.01, help="with --live: real-time factor to hold"))\
+        speed: float = typer.Option(1.0, "--speed", min=0.01, help="with --live: real-time factor to hold"),
+        map_source: str | None = typer.Option(
+            None, "--map-source", help="override the challenge's rule: sensors (default of the shipped challenges: "
+            "the contestant knows only its lidar, an agent is refused the map), prior (a known map), both"))\
         -> None:
     """Grade a contestant: each run ends at the goal, a collision, the time limit, or an agent fault."""
     from fleet.executors import make_executor
     from fleet.grading import RunResult, run_challenge
     from fleet.grading import leaderboard as board
+    from fleet.grading.challenge import Challenge, load_challenge
     from fleet.grading.runner import LiveSettings
-    from sim.errors import FleetError
+    from sim.errors import ErrorCode, FleetError
 
     def progress(r: RunResult) -> None:
         if not as_json:
@@ -57,7 +61,13 @@ def run(challenge: str = typer.Argument(..., help="a name in configs/challenges 
     try:
         ex = None if executor == "local" and (jobs or 1) == 1 and ray_address is None else \
             make_executor(executor, jobs=jobs, ray_address=ray_address, retries=retries)
-        report = run_challenge(challenge, agent=agent, controller=controller, runs=runs, out_dir=out,
+        chosen: Challenge | str = challenge
+        if map_source is not None:
+            if map_source not in ("sensors", "prior", "both"):
+                raise FleetError(ErrorCode.INVALID_ARGUMENT, f"--map-source must be sensors, prior or both, got "
+                                 f"'{map_source}'")
+            chosen = load_challenge(challenge).model_copy(update={"map_source": map_source})
+        report = run_challenge(chosen, agent=agent, controller=controller, runs=runs, out_dir=out,
                                progress=progress, executor=ex, live=LiveSettings(port, speed) if live else None)
         if live:
             typer.echo(f"live view was on ws://127.0.0.1:{port} (layout: configs/foxglove_layout.json)")

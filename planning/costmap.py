@@ -168,8 +168,13 @@ class LayeredCostmap:
                                          oy + rng[mark] * np.sin(ang[mark])]), True)
         self._refresh()
 
-    def clear_dynamic(self) -> None:
-        self._marked[:] = False
+    def clear_dynamic(self, around: tuple[float, float, float] | None = None) -> None:
+        if around is None:
+            self._marked[:] = False
+        else:  # a disc about (x, y): what the scans built elsewhere is the robot's map, and stays
+            x, y, r = around
+            xs, ys = self.grid.cell_centres()
+            self._marked[(xs - x) ** 2 + (ys - y) ** 2 <= r * r] = False
         self._refresh()
 
     def add_keepout(self, polygon: Polygon) -> None:

@@ -54,6 +54,13 @@ class NavigatorConfig(StrictModel):
         "traversable); both: the prior map corrected by the lidar")
     sense_period_s: float = Field(0.2, gt=0, description="with sensors/both: fold the scan into the costmap "
                                   "this often, and replan when the path ahead became blocked, s")
+    progress_radius: float = Field(0.5, gt=0, description="with sensors/both: moving this far also counts as "
+                                   "progress (nav2's progress checker), as exploring lengthens the route, m")
+    clear_radius: float = Field(1.0, ge=0, description="with sensors/both: the 'clear costmap' recovery forgets "
+                                "the scans only this close to the robot; the rest is the map it has built, m")
+    block_horizon: float = Field(2.0, gt=0, description="with sensors/both: a newly seen obstacle this close "
+                                 "along the path replans at once; farther ones every block_replan_s, m")
+    block_replan_s: float = Field(1.0, gt=0, description="see block_horizon, s")
 
 
 def make_navigator(config: NavigatorConfig, *, costmap: Costmap, spec: RobotSpec) -> Navigator:
@@ -82,6 +89,9 @@ class Navigator:
     _ref: PathReference | None
     _pending: str | None  # why the next tick must (re)plan
     _scan: LidarScan | None
+    _pose: Pose2D | None
+    _check_pose: Pose2D | None
+    _recovery_pose: Pose2D | None
     _t0: float
     _t_last: float
     _t_end: float
@@ -92,7 +102,8 @@ class Navigator:
                  yaw_tolerance: float = 0.1, off_path_distance: float = 0.5, progress_timeout_s: float = 10.0,
                  min_progress: float = 0.1, max_recoveries: int = 4, timeout_s: float | None = None,
                  replan_period_s: float | None = None, map_source: str = "prior",
-                 sense_period_s: float = 0.2) -> None:
+                 sense_period_s: float = 0.2, progress_radius: float = 0.5, clear_radius: float = 1.0,
+                 block_horizon: float = 2.0, block_replan_s: float = 1.0) -> None:
         self.planner, self.costmap, self.controller = planner, costmap, controller
         self.safety, self.recovery = safety, recovery
         self.max_v, self.max_a, self.max_w, self.max_lat = max_v, max_a, max_w, max_lat_accel
@@ -102,6 +113,8 @@ class Navigator:
         self.max_recoveries, self.timeout, self.replan_period = max_recoveries, timeout_s, replan_period_s
         self.sensing = map_source != "prior"  # the costmap learns from every scan, not only at replans
         self.sense_period, self._t_sensed = sense_period_s, -math.inf
+        self.progress_radius, self.clear_radius = progress_radius, clear_radius
+        self.block_horizon, self.block_replan_s = block_horizon, block_replan_s
         self.plans: list[PlanResult] = []  # every plan made for the current goal (for diagnostics)
         self.events: list[tuple[float, str]] = []  # (sim time, why) of every replan and recovery
         self._start(0.0, None, None, False)
@@ -129,7 +142,7 @@ class Navigator:
         """One control step: the body twist (v, ω) to apply until the next tick."""
         if self._state is NavState.IDLE or self._state.done:
             return STOP
-        dt, self._t_last, self._scan = max(now - self._t_last, 0.0), now, scan
+        dt, self._t_last, self._scan, self._pose = max(now - self._t_last, 0.0), now, scan, pose
         # 1. end conditions: arrived (then optionally turn to the goal's heading), or out of time
         if self._arrived(pose):
             return self._align_or_succeed(now, pose)
@@ -146,7 +159,7 @@ class Navigator:
         # 4. track the path, then let the reactive layer veto or slow the command
         assert self._ref is not None
         out = self.controller.compute(pose, twist, self._ref, now=now, costmap=self.costmap)
-        self._watch(now, dt, twist, out)
+        self._watch(now, dt, twist, out, pose)
         safe = self.safety.filter(out.v, out.w, scan, now)
         if safe.blocked:
             self._pending = "blocked by an obstacle"
@@ -186,7 +199,8 @@ class Navigator:
         self._ref_s, self._speed = 0.0, 0.0  # progress along the reference; ~2 s average speed
         self._recoveries, self._attempt, self._recovered_at = 0, 0, math.inf
         self._check_t, self._check_remaining = now, math.inf  # stall detection
-        self._scan = None
+        self._check_pose = self._recovery_pose = None  # where the stall clock / the last recovery started
+        self._scan, self._pose = None, None
 
     def _arrived(self, pose: Pose2D) -> bool:
         assert self._goal is not None
@@ -254,10 +268,14 @@ class Navigator:
         if self._ref is not None and self._pending is None and self._state is NavState.TRACKING:
             i = int(np.searchsorted(self._ref.s, self._ref_s))
             ahead = np.column_stack([self._ref.x[i:], self._ref.y[i:]])
-            if len(ahead) and not self.costmap.is_free_many(ahead).all():
+            blocked = np.flatnonzero(~self.costmap.is_free_many(ahead)) if len(ahead) else ahead[:0, 0]
+            # Near: replan now. Farther: at most once per block_replan_s — the optimistic route grazes the edge
+            # of walls still being discovered, and replanning every scan for a wall metres away only dithers.
+            if blocked.size and (self._ref.s[i + int(blocked[0])] - self._ref.s[i] <= self.block_horizon
+                                 or now - self._last_plan_t >= self.block_replan_s):
                 self._pending = "a newly seen obstacle blocks the path"
 
-    def _watch(self, now: float, dt: float, twist: tuple[float, float], out: ControlOutput) -> None:
+    def _watch(self, now: float, dt: float, twist: tuple[float, float], out: ControlOutput, pose: Pose2D) -> None:
         """Progress bookkeeping, and the reasons to replan: off the path, stalled, periodic."""
         self._ref_s = out.progress
         self._speed += min(1.0, dt / 2.0) * (abs(twist[0]) - self._speed)  # ~2 s moving average
@@ -268,9 +286,13 @@ class Navigator:
             self._pending = f"off the path by {abs(out.cross_track):.2f} m"
         elif self.replan_period is not None and now - self._last_plan_t >= self.replan_period:
             self._pending = "periodic replan"
-        if remaining < self._check_remaining - self.min_progress:  # made progress: reset the stall clock
-            self._check_t, self._check_remaining = now, remaining
-            if self._attempt and remaining < self._recovered_at - 1.0:
+        # Exploring (sensors/both), each newly seen wall lengthens the route: moving on counts as progress too.
+        moved = self.sensing and (self._check_pose is None
+                                  or pose.distance_to(self._check_pose) > self.progress_radius)
+        if remaining < self._check_remaining - self.min_progress or moved:  # progress: reset the stall clock
+            self._check_t, self._check_remaining, self._check_pose = now, remaining, pose
+            far = self.sensing and self._recovery_pose is not None and pose.distance_to(self._recovery_pose) > 1.0
+            if self._attempt and (remaining < self._recovered_at - 1.0 or far):
                 self._attempt = 0  # a metre of progress since the last recovery: start the ladder again
         elif now - self._check_t > self.progress_timeout:
             self._begin_recovery(now, f"no progress for {self.progress_timeout:.0f} s")
@@ -281,11 +303,13 @@ class Navigator:
             self._fail(f"{reason} (after {self.max_recoveries} recoveries)")
             return
         self._recoveries += 1
-        steps = self.recovery.begin(self._attempt, self.costmap)
+        p = self._pose
+        steps = self.recovery.begin(self._attempt, self.costmap, None if not self.sensing or p is None
+                                    else (p.x, p.y, self.clear_radius))
         self._state, self._reason = NavState.RECOVERING, f"{reason}; recovery: {', '.join(steps)}"
         self.events.append((now, self._reason))
-        self._recovered_at = self._remaining()
-        self._check_t, self._check_remaining = now, math.inf
+        self._recovered_at, self._recovery_pose = self._remaining(), self._pose
+        self._check_t, self._check_remaining, self._check_pose = now, math.inf, None
         self.controller.reset()
 
     def _recover(self, now: float, pose: Pose2D) -> tuple[float, float]:
@@ -313,8 +337,10 @@ class Navigator:
 
     def _goal_free_without_scans(self) -> bool:
         assert self._goal is not None
-        self.costmap.clear_dynamic()
-        return self.costmap.is_free(self._goal.x, self._goal.y)
+        g = self._goal
+        # with sensors/both only near the goal: the rest of what the scans built is the robot's map
+        self.costmap.clear_dynamic((g.x, g.y, self.costmap.robot_radius + 0.5) if self.sensing else None)
+        return self.costmap.is_free(g.x, g.y)
 
     def _remaining(self) -> float:
         if self._ref is None:

@@ -86,8 +86,9 @@ class Costmap(Protocol):
         """Mark beam endpoints as obstacles and clear the cells the beams passed through."""
         ...
 
-    def clear_dynamic(self) -> None:
-        """Forget everything the scans added (recovery behaviour 'clear costmap')."""
+    def clear_dynamic(self, around: tuple[float, float, float] | None = None) -> None:
+        """Forget what the scans added (recovery behaviour 'clear costmap'); with `around` = (x, y, r) only
+        within r of (x, y) (nav2's ClearCostmapAroundRobot), so a map built from the scans survives."""
         ...
 
     def add_keepout(self, polygon: Polygon) -> None:

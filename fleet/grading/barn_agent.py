@@ -49,6 +49,8 @@ def run_agent_job(job: BarnJob) -> dict[str, Any]:
         svc = FleetService(FleetConfig(world=job.world, physics_hz=job.physics_hz, control_hz=job.control_hz,
                                        seed=job.seed, fidelity="kinematic", robot_model=str(robot_yaml),
                                        safety=SafetyConfig(geofence=_fence(Path(job.world)))))
+        if job.nav.get("map_source", "sensors") == "sensors":  # BARN's rule: no prior map for the agent either
+            svc.withhold_prior_map(f"BARN world {job.world_id}")
         ep = Episode(svc, ROBOT, BARN_GOAL, success_radius=SUCCESS_RADIUS, time_limit=MAX_SIM_S,
                      collision_rule="end")
         try:

@@ -69,11 +69,12 @@ class Challenge(StrictModel):
     seed: int = Field(0, ge=0)
     safety_distance: float = Field(0.3, ge=0, description="clearance below which time counts as in danger, m")
     optimal_planner: str = Field("guided_theta_star", description="planner for the optimal path (T_opt)")
-    # Default stays `prior`: on `sensors` the builtins pass the cluttered arenas but not the arena_course maze
-    # (docs/benchmarks-challenge.md), so switching would fail a shipped challenge.
+    # Default `sensors`: a graded robot must not read the world file. The builtins navigate on their lidar
+    # and an agent is refused the world's occupancy map (fleet.ops_nav.withhold_prior_map).
     map_source: Literal["sensors", "prior", "both"] = Field(
-        "prior", description="what a builtin contestant's navigator knows: sensors (only its own lidar: a graded "
-        "robot that does not read the world file), prior (the world's obstacles), both")
+        "sensors", description="what the contestant may know of the world: sensors (only its own lidar; the "
+        "world's occupancy map is refused to an agent), prior (a builtin navigates on the world's obstacles, an "
+        "agent may ask for the map: fleets in known warehouses), both (a builtin's prior map corrected by its lidar)")
     agent: AgentSection = Field(default_factory=AgentSection)
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
 

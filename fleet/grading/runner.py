@@ -112,6 +112,8 @@ def _run_once(rc: ResolvedChallenge, k: int, contestant: str, spec: RobotSpec, o
     nav = navigation_settings(ch, contestant)
     svc = FleetService(FleetConfig(world=str(rc.world_path), physics_hz=ch.physics_hz, control_hz=ch.control_hz,
                                    seed=seed, fidelity=ch.fidelity, robot_model=ch.robot, navigation=nav))
+    if ch.map_source == "sensors":  # the graded robot must not read the world file, nor may its agent
+        svc.withhold_prior_map(f"challenge {ch.name}")
     ep = Episode(svc, ROBOT, rc.goal, success_radius=ch.success_radius, time_limit=ch.time_limit,
                  collision_rule=ch.collision)
     wall0 = time.perf_counter()

@@ -88,7 +88,7 @@ class FoxglovePublisher:
 
     def on_tick(self, snap: FleetSnapshot) -> None:
         t = snap.time
-        if self._map_dirty:
+        if self._map_dirty and self.svc.map_withheld() is None:  # not under a graded sensors rule
             self._log("/map", GridChannel, fm.grid_msg(t, self.svc.static_grid()), t)
             self._map_dirty = False
         self._publish_state(snap)

@@ -221,8 +221,9 @@ class Commands:
             snap = svc.snapshot
             return encode_fleet_state(snap, self.gate.tick_of(snap.step_count))
         if key == k.fleet("map"):
-            return Later(self.gate.run(svc.static_grid), lambda grid: encode_map(svc.snapshot.time, grid.data,
-                                                                                 grid.resolution, grid.origin))
+            # prior_map is refused under a graded run's `map_source: sensors` rule
+            return Later(self.gate.run(svc.prior_map), lambda grid: encode_map(svc.snapshot.time, grid.data,
+                                                                               grid.resolution, grid.origin))
         if key == k.fleet("tasks"):
             tq = decode(TasksReq, payload, key)
             return self._on_sim(lambda: svc.list_tasks(tq.robot, tq.include_done))

@@ -46,9 +46,11 @@ class Recovery:
     def active(self) -> bool:
         return bool(self._queue) or self._motion is not None
 
-    def begin(self, attempt: int, costmap: Costmap) -> list[str]:
-        """Start attempt `attempt` (1-based); returns the behaviours it will run."""
-        costmap.clear_dynamic()
+    def begin(self, attempt: int, costmap: Costmap,
+              around: tuple[float, float, float] | None = None) -> list[str]:
+        """Start attempt `attempt` (1-based); returns the behaviours it will run. With `around` (x, y, r) the
+        costmap is cleared only there: a map built from the scans is all a sensors-only robot knows."""
+        costmap.clear_dynamic(around)
         plan = ["clear_costmap"] + (["backup"] if attempt >= 2 else []) + (["spin"] if attempt >= 3 else [])
         self._queue = plan[1:]
         self._motion = None

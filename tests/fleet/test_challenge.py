@@ -118,13 +118,12 @@ def test_same_challenge_and_seed_give_the_same_trajectory(tmp_path):
 
 
 def test_map_source_reaches_a_builtin_and_sensors_only_still_passes_an_arena(tmp_path):
-    """`map_source` (default prior) goes to a builtin's navigator; on `sensors` (its own lidar only, unknown
-    space traversable) the navigator still solves a generated arena; a bad value names the field."""
+    """`map_source` (default sensors) goes to a builtin's navigator; on `sensors` (its own lidar only, unknown
+    space traversable) the navigator solves a generated arena; a bad value names the field."""
     from fleet.grading.runner import navigation_settings
 
-    ch = load_challenge("cluttered_1")
-    assert ch.map_source == "prior"
-    sensed = ch.model_copy(update={"map_source": "sensors"})
+    sensed = load_challenge("cluttered_1")
+    assert sensed.map_source == "sensors"
     assert navigation_settings(sensed, "builtin:mpc_osqp") == {"controller": {"type": "mpc_osqp"},
                                                                 "map_source": "sensors"}
     assert navigation_settings(sensed, "python my_nav.py") == {}  # an agent brings its own navigation
@@ -166,7 +165,8 @@ def test_a_live_challenge_run_serves_the_map_to_a_viewer(tmp_path):
 
     t = threading.Thread(target=watch, daemon=True)
     t.start()
-    report = run_challenge("cluttered_1", controller="builtin:pure_pursuit", runs=1, out_dir=tmp_path,
+    known = load_challenge("cluttered_1").model_copy(update={"map_source": "prior"})  # on sensors: no /map
+    report = run_challenge(known, controller="builtin:pure_pursuit", runs=1, out_dir=tmp_path,
                            live=LiveSettings(port, speed=20.0))
     t.join(timeout=1.0)
     run = report.runs[0]

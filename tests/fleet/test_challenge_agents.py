@@ -50,8 +50,10 @@ def test_reference_goal_seeker_completes_an_arena_with_the_exact_score(tmp_path)
 
 
 def test_reference_goal_seeker_completes_the_course_arena_maze(tmp_path):
-    """The course's own challenge: spawn_start → goal_marker through the barriers, over Zenoh in lock-step."""
-    report = run_challenge("arena_course", agent=SEEKER, runs=1, out_dir=tmp_path)
+    """The course's own challenge: spawn_start → goal_marker through the barriers, over Zenoh in lock-step;
+    with `map_source: prior` chosen explicitly, so the seeker may plan its route over the world's map."""
+    known = load_challenge("arena_course").model_copy(update={"map_source": "prior"})
+    report = run_challenge(known, agent=SEEKER, runs=1, out_dir=tmp_path)
     run = report.runs[0]
     assert run.outcome is Outcome.SUCCEEDED, f"{run.reason}\n{run.agent_log}"
     s = run.score
@@ -60,6 +62,16 @@ def test_reference_goal_seeker_completes_the_course_arena_maze(tmp_path):
     assert s.score == pytest.approx(s.t_opt / min(max(s.time, 2 * s.t_opt), 8 * s.t_opt))
     assert 0.125 <= s.score <= 0.5
     assert math.hypot(run.trajectory[-1, 1] - 5.0, run.trajectory[-1, 2] - 5.0) <= 0.5
+
+
+def test_under_the_default_sensors_rule_the_graded_agent_is_refused_the_map(facing_wall, tmp_path):
+    """The seeker asks for the occupancy map over Zenoh; a graded run on `sensors` (the default) refuses it
+    with the rule's name, and the seeker falls back to seeking the goal on its scans."""
+    assert facing_wall.map_source == "sensors"
+    report = run_challenge(facing_wall, agent=SEEKER, runs=1, out_dir=tmp_path)
+    log = report.runs[0].agent_log
+    assert "no route (the world's occupancy map is withheld: challenge facing_wall" in log, log
+    assert "map_source: sensors" in log
 
 
 def test_driving_into_a_wall_is_a_collision_at_the_closed_form_time(facing_wall, tmp_path):

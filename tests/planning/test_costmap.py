@@ -79,6 +79,9 @@ def test_scan_marks_returns_and_raytrace_clears_them() -> None:
     ranges[4] = 1.0
     cm.update_from_scan(_scan(ranges), pose)
     assert cm.lethal_mask[cm.grid.world_to_cell(1.0, 0.0)] and cm.lethal_mask[hit]
+    # a recovery of a sensors-only robot clears only a disc about it: the marks beyond are its map
+    cm.clear_dynamic((1.0, 0.2, 0.5))  # (1, 0) is 0.2 m away, (1, 1) 0.8 m
+    assert not cm.lethal_mask[cm.grid.world_to_cell(1.0, 0.0)] and cm.lethal_mask[hit]
     cm.clear_dynamic()
     assert cm.lethal_mask.sum() == 0
 

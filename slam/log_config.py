@@ -72,6 +72,9 @@ class LoopConfig(StrictModel):
     sigma_floor_yaw: float = Field(0.01, gt=0, description="rad")
     kernel: Literal["huber", "cauchy", "none"] = "huber"
     kernel_width: float = Field(1.0, gt=0, description="in σ units")
+    strong_kernel_beyond: float | None = Field(0.3, gt=0, description="a closure that disagrees with the "
+                                               "current estimate by more than this gets a Cauchy kernel "
+                                               "(None: always `kernel`), m")
     residual_chi2: float = Field(16.27, gt=0, description="remove a closure still this inconsistent (χ², "
                                  "3 dof) after optimising")
 

@@ -107,3 +107,17 @@ def test_mcap_log_without_odometry(tmp_path: Path) -> None:
     ref = np.array([p.as_tuple() for p in truth])
     assert float(evaluate(est, ref)["ate_rmse"]) < 0.05  # type: ignore[arg-type]
     assert slam.stats.wide == len(truth) - 1 and slam.stats.odometry_only == 0
+
+
+def test_only_a_closure_far_from_the_estimate_gets_the_strong_kernel(
+        run: tuple[LogSlam, np.ndarray, np.ndarray, Path]) -> None:
+    slam, _, _, _ = run
+    loops = slam.loops
+    assert loops.config.strong_kernel_beyond == 0.3 and loops.config.kernel == "huber"
+    x0, y0, t0 = slam.poses[20]
+    x1, y1, t1 = slam.poses[120]
+    c, s = math.cos(t0), math.sin(t0)
+    now = (c * (x1 - x0) + s * (y1 - y0), -s * (x1 - x0) + c * (y1 - y0), t1 - t0)  # 120 in 20's frame
+    assert loops.kernel_for(20, 120, now) == "huber"
+    assert loops.kernel_for(20, 120, (now[0] + 0.2, now[1] - 0.2, now[2])) == "huber"  # 0.28 m off
+    assert loops.kernel_for(20, 120, (now[0] + 0.25, now[1] - 0.25, now[2])) == "cauchy"  # 0.35 m off

@@ -40,6 +40,12 @@ class FrontEndConfig(StrictModel):
     icp_range_sigma: float = Field(0.05, gt=0, description="per-point σ behind the edge information, m")
     sigma_floor_xy: float = Field(0.01, gt=0, description="scan-matching edge σ never below this, m")
     sigma_floor_yaw: float = Field(0.003, gt=0, description="rad")
+    sigma_floor_length: float | None = Field(1.0, gt=0, description="the floors hold for a step that covers "
+                                             "this much ground; a step's floor variance scales with the ground "
+                                             "it covered (None: the same floor for every step), m")
+    sigma_floor_m_per_rad: float = Field(0.5, ge=0, description="a turn covers this much ground per rad, m")
+    sigma_floor_min_share: float = Field(0.05, gt=0, le=1, description="… but never below this share of the "
+                                         "floor variance")
     odom_sigma_xy: float = Field(0.2, gt=0, description="σ of an edge from odometry alone (match failed), m")
     odom_sigma_yaw: float = Field(0.1, gt=0, description="rad")
 

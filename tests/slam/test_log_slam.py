@@ -121,3 +121,15 @@ def test_only_a_closure_far_from_the_estimate_gets_the_strong_kernel(
     assert loops.kernel_for(20, 120, now) == "huber"
     assert loops.kernel_for(20, 120, (now[0] + 0.2, now[1] - 0.2, now[2])) == "huber"  # 0.28 m off
     assert loops.kernel_for(20, 120, (now[0] + 0.25, now[1] - 0.25, now[2])) == "cauchy"  # 0.35 m off
+
+
+def test_front_end_edge_floor_grows_with_the_ground_covered() -> None:
+    fe = LogSlamConfig().frontend
+    assert fe.sigma_floor_length == 1.0 and fe.sigma_floor_m_per_rad == 0.5
+    slam = LogSlam()
+    unit = np.diag([fe.sigma_floor_xy**2, fe.sigma_floor_xy**2, fe.sigma_floor_yaw**2])
+    np.testing.assert_allclose(slam._floor((0.3, 0.4, 0.0)), 0.5 * unit)  # 0.5 m straight
+    np.testing.assert_allclose(slam._floor((1.2, -1.6, 0.0)), 2.0 * unit)  # 2 m
+    np.testing.assert_allclose(slam._floor((0.0, 0.0, -1.0)), 0.5 * unit)  # 1 rad turned on the spot
+    np.testing.assert_allclose(slam._floor((0.6, 0.0, 0.8)), 1.0 * unit)  # 0.6 m + 0.8 rad
+    np.testing.assert_allclose(slam._floor((0.001, 0.0, 0.0)), fe.sigma_floor_min_share * unit)  # standing

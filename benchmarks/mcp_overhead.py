@@ -16,6 +16,7 @@ import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -34,9 +35,14 @@ async def measure(threaded: bool, calls: int) -> dict[str, Any]:
         svc.start("realtime", 1.0)
     out: dict[str, Any] = {}
     async with Client(build_server(svc)) as c:
-        cases = [("sim_status", {}, lambda: svc.call(svc.status)),
-                 ("get_robot_state", {"robot": "robot1"}, lambda: svc.call(lambda: svc.list_tasks("robot1"))),
-                 ("list_robots", {}, lambda: svc.snapshot.summary())]
+        cases: list[tuple[str, dict[str, Any], Callable[[], Any]]] = [
+            ("sim_status", {}, lambda: svc.call(svc.status)),
+            ("get_robot_state", {"robot": "robot1"}, lambda: svc.call(lambda: svc.list_tasks("robot1"))),
+            ("list_robots", {}, lambda: svc.snapshot.summary()),
+            # a typed task spec: the MCP union, then the service's params model (issue 16; the queue
+            # holds 200, so --calls ≤ 99)
+            ("queue_task", {"spec": {"type": "go_to", "params": {"goal": {"x": 2.0, "y": 1.0}}}},
+             lambda: svc.queue_task("go_to", {"goal": {"x": 2.0, "y": 1.0}}))]
         for tool, args, direct in cases:
             await c.call_tool(tool, args)
             mcp_ms, direct_ms = [], []

@@ -136,15 +136,21 @@ def raycast_section(args: argparse.Namespace, console: Console) -> list[CastResu
         out.append(compare(n, beams, 3.0 if args.quick else 10.0))
         r = out[-1]
         console.print(f"  ray casters {n:5d} robots × {beams} beams: embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
-                      f"rayTestBatch {r.rays / r.pybullet_s / 1e6:.2f} Mrays/s, {r.ratio:.1f}× (load "
-                      f"{os.getloadavg()[0]:.2f})")
+                      f"rayTestBatch {r.rays / r.pybullet_s / 1e6:.2f} Mrays/s, {r.ratio:.1f}× wall, "
+                      f"{r.cpu_ratio:.1f}× CPU time; robots rebuilt per cast (before) "
+                      f"{r.pybullet_s / r.rebuild_s:.1f}× (load {os.getloadavg()[0]:.2f})")
     t = Table(title="ray casters on the same lidar rays (one sweep of every robot, alternating backends)")
     for col in ("robots × beams", "rays", "embree ms/cast", "rayTestBatch ms/cast", "embree Mrays/s",
-                "rayTestBatch Mrays/s", "ratio", "target", "met", "hit/miss agree", "range diff median / p99 mm"):
+                "rayTestBatch Mrays/s", "ratio", "CPU ms/cast embree / rTB", "CPU ratio",
+                "before: rebuild ms/cast (ratio, CPU ratio)", "target", "met", "hit/miss agree",
+                "range diff median / p99 mm"):
         t.add_column(col, justify="right")
     for r in out:
         t.add_row(f"{r.robots} × {r.beams}", f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
                   f"{r.rays / r.embree_s / 1e6:.2f}", f"{r.rays / r.pybullet_s / 1e6:.2f}", f"{r.ratio:.1f}×",
+                  f"{1e3 * r.embree_cpu_s:.1f} / {1e3 * r.pybullet_cpu_s:.1f}", f"{r.cpu_ratio:.1f}×",
+                  f"{1e3 * r.rebuild_s:.1f} ({r.pybullet_s / r.rebuild_s:.1f}×, "
+                  f"{r.pybullet_cpu_s / r.rebuild_cpu_s:.1f}×)",
                   f"≥ {LIDAR_RATIO_TARGET:g}×", "yes" if r.ratio >= LIDAR_RATIO_TARGET else "NO",
                   f"{100 * r.hit_agree:.2f}%", f"{r.median_mm:.4f} / {r.p99_mm:.2f}")
     console.print(t)

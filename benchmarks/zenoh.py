@@ -3,6 +3,8 @@
     .venv/bin/python benchmarks/zenoh.py            # 100 robots, 10 agents × 10 robots at 10 Hz, 20 s windows
     .venv/bin/python benchmarks/zenoh.py --quick    # 20 robots, 2 agents, 5 s windows
     .venv/bin/python benchmarks/zenoh.py --lifecycle [--quick]  # agents' leases, rates, hung agents (issue 19)
+    .venv/bin/python benchmarks/zenoh.py --stages --robot-cast rebuild,closed  # issue 17a: robots' Embree scene
+                                                                               # rebuilt per cast (before) / not
 
 Two windows on the same world, one after the other, with the same command load:
   baseline  the commands enter in-process (FleetService.submit → safety envelope), no Zenoh at all;
@@ -127,11 +129,12 @@ def read_json(p: subprocess.Popen[str]) -> dict[str, Any]:
 # ---- the server side -----------------------------------------------------------------------------------------
 
 
-def make_service(n: int, beams: int, tmp: Path, lidar_phases: str = "spread") -> Any:
+def make_service(n: int, beams: int, tmp: Path, lidar_phases: str = "spread", robot_cast: str = "closed") -> Any:
     import yaml
 
     from fleet import FleetConfig, FleetService
     from sim import Pose2D
+    from sim.raycast_embree import EmbreeCaster
 
     spec = yaml.safe_load((ROOT / "configs" / "robots" / "diffbot.yaml").read_text())
     spec["sensors"]["lidar"]["beams"] = beams
@@ -145,6 +148,9 @@ def make_service(n: int, beams: int, tmp: Path, lidar_phases: str = "spread") ->
     for i in range(n):
         x, y = SPACING * (i % side - (side - 1) / 2), SPACING * (i // side - (side - 1) / 2)
         svc.spawn_robot(f"r{i:03d}", Pose2D(x, y, 0.0))
+    # "closed": robots intersected in closed form (issue 17a); "rebuild": their Embree scene built every cast
+    svc.world.rays.embree = EmbreeCaster(svc.world)
+    svc.world.rays.embree.closed_form = robot_cast == "closed"
     return svc
 
 
@@ -289,6 +295,9 @@ def main() -> None:
                     help="comma-separated lidar phase policies, one whole measurement each, in this order: 'spread' "
                          "(each physics step casts ~1/10 of the fleet's lidars) and/or 'aligned' (all in one step, "
                          "the behaviour before issue 17b)")
+    ap.add_argument("--robot-cast", default="rebuild,closed",
+                    help="comma-separated, one whole measurement each, in this order: 'rebuild' (the robots' Embree "
+                         "scene built in every cast: before issue 17a) and/or 'closed' (robots in closed form, now)")
     a = ap.parse_args()
     if a.role == "agents":
         return role_agents(a.connect, a.robots.split(","), a.per_agent, float(a.duration), a.tag)
@@ -299,20 +308,21 @@ def main() -> None:
     procs = 1 if a.quick else 2
     runs: dict[str, Any] = {}
     for phases in a.lidar_phases.split(","):
-        with tempfile.TemporaryDirectory() as tmp:
-            svc = make_service(n, a.beams, Path(tmp), phases)
-            names = list(svc.snapshot.names)
-            svc.start("realtime", 1.0)
-            try:
-                base = baseline(svc, names, a.per_agent, duration)
-                zen = over_zenoh(svc, names, a.per_agent, duration, procs)
-            finally:
-                svc.close()
-        print(f"\n==== lidar phases: {phases}")
-        report(n, a.beams, a.per_agent, duration, procs, base, zen)
-        if a.stages:
-            report_stages(base, zen)
-        runs[phases] = {"baseline": base, "zenoh": zen, "load": os.getloadavg()}
+        for cast in a.robot_cast.split(","):
+            with tempfile.TemporaryDirectory() as tmp:
+                svc = make_service(n, a.beams, Path(tmp), phases, cast)
+                names = list(svc.snapshot.names)
+                svc.start("realtime", 1.0)
+                try:
+                    base = baseline(svc, names, a.per_agent, duration)
+                    zen = over_zenoh(svc, names, a.per_agent, duration, procs)
+                finally:
+                    svc.close()
+            print(f"\n==== lidar phases: {phases}, robots in the ray cast: {cast}")
+            report(n, a.beams, a.per_agent, duration, procs, base, zen)
+            if a.stages:
+                report_stages(base, zen)
+            runs[f"{phases}/{cast}"] = {"baseline": base, "zenoh": zen, "load": os.getloadavg()}
     if a.json:
         a.json.write_text(json.dumps({"robots": n, "beams": a.beams, "runs": runs}, indent=1, default=str),
                           encoding="utf-8")

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 from fleet.config import BatteryConfig, FleetConfig
 from fleet.events import EventBus
+from fleet.fleet_view import FleetView, RobotArrays
 from fleet.safety import SafetyConfig, SafetyEnvelope
 from fleet.types import ErrorCode, Event, FleetError, FleetSnapshot, RobotView, TaskState
 
@@ -31,6 +32,8 @@ __all__ = [
     "FleetError",
     "FleetService",
     "FleetSnapshot",
+    "FleetView",
+    "RobotArrays",
     "RobotView",
     "SafetyConfig",
     "SafetyEnvelope",

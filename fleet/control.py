@@ -9,6 +9,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 if TYPE_CHECKING:
+    from fleet.fleet_view import FleetView
     from fleet.service import FleetService
 
 Command = tuple[float, float]
@@ -31,7 +32,7 @@ class ControlSource(Protocol):
 class VelocityFilter(Protocol):
     """Multi-robot avoidance: adjusts desired velocities so robots keep clear of each other."""
 
-    def filter(self, service: FleetService, desired: dict[str, Command]) -> dict[str, Command]: ...
+    def filter(self, view: FleetView, desired: dict[str, Command]) -> dict[str, Command]: ...
 
 
 class ControlLoop:
@@ -100,7 +101,7 @@ class ControlLoop:
             # Robots of an exclusive source (the traffic layer) are kept apart by it: avoidance leaves them be.
             fixed = {r: desired.pop(r) for r in list(desired)
                      if any(getattr(s, "exclusive", False) and s.owner(r) is not None for s in self.sources)}
-            desired = self.avoidance.filter(svc, desired) if len(desired) > 1 else desired
+            desired = self.avoidance.filter(svc.view, desired) if len(desired) > 1 else desired
             desired.update(fixed)
         self.last_desired = desired
         f = world.table.f

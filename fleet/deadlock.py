@@ -31,7 +31,7 @@ from fleet.tasks.basic import GoToTask, NavTask
 from sim.config import StrictModel
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 Command = tuple[float, float]
 _ids = itertools.count(1)
@@ -99,8 +99,8 @@ def wait_for_cycles(edges: dict[str, set[str]]) -> list[tuple[str, ...]]:
 class DeadlockMonitor:
     """A ControlSource: detects deadlocks, publishes them, and drives yielding robots while they back off."""
 
-    def __init__(self, service: FleetService, config: DeadlockConfig | None = None) -> None:
-        self.service = service
+    def __init__(self, view: FleetView, config: DeadlockConfig | None = None) -> None:
+        self.view = view
         self.config = config or DeadlockConfig()
         self.deadlocks: dict[str, Deadlock] = {}
         self._anchor: dict[str, tuple[float, float, float]] = {}  # robot → (x, y, time of last progress)
@@ -116,7 +116,7 @@ class DeadlockMonitor:
             self._check(now)
         out: dict[str, Command] = {}
         for robot, y in list(self._yield.items()):
-            if now >= y.until_hold or not self.service.world.table.has(robot) or self._winner_clear(y, now):
+            if now >= y.until_hold or not self.view.robots.has(robot) or self._winner_clear(y, now):
                 del self._yield[robot]
                 self._anchor.pop(robot, None)  # a fresh start for its own progress clock
                 continue
@@ -128,12 +128,12 @@ class DeadlockMonitor:
         """The winner is through: done, gone, or `clear_distance` from where it stood (after the back-off)."""
         if now < y.until_backoff:
             return False
-        t, dl = self.service.world.table, self.deadlocks[y.deadlock]
+        t, dl = self.view.robots, self.deadlocks[y.deadlock]
         if not t.has(y.winner) or not self._navigating(y.winner):
             return True
         i = t.index(y.winner)
         x0, y0 = dl.start_xy[y.winner]
-        return bool(np.hypot(t.f["x"][i] - x0, t.f["y"][i] - y0) >= self.config.clear_distance)
+        return bool(np.hypot(t.x[i] - x0, t.y[i] - y0) >= self.config.clear_distance)
 
     def owner(self, robot: str) -> str | None:
         y = self._yield.get(robot)
@@ -162,9 +162,9 @@ class DeadlockMonitor:
     # ---- detection -------------------------------------------------------------------------------------
 
     def _check(self, now: float) -> None:
-        svc, cfg = self.service, self.config
-        t = svc.world.table
-        xy = np.column_stack([t.f["x"], t.f["y"]])
+        cfg = self.config
+        t = self.view.robots
+        xy = t.xy
         waited: dict[str, float] = {}
         for i, name in enumerate(t.names):
             if not self._commanded(name):
@@ -194,10 +194,10 @@ class DeadlockMonitor:
              busy: set[str]) -> tuple[str, ...]:
         """The robots stuck together with `robot`: the waiting robots within reach of each other (a crowd can
         block without a strict cycle: everyone held by neighbours beside it), plus whoever blocks them."""
-        t = self.service.world.table
+        t = self.view.robots
         names = [n for n in waited if n not in busy]
         pts = xy[[t.index(n) for n in names]]
-        reach = 2 * self.config.block_gap + 2 * float(t.f["radius"].max())
+        reach = 2 * self.config.block_gap + 2 * float(t.radius.max())
         group, frontier = {robot}, [robot]
         while frontier:
             a = frontier.pop()
@@ -211,29 +211,29 @@ class DeadlockMonitor:
 
     def _commanded(self, robot: str) -> bool:
         """Expected to make progress now: navigating, and neither yielding nor e-stopped."""
-        return robot not in self._yield and not self.service.safety.is_estopped(robot) and self._navigating(robot)
+        return robot not in self._yield and not self.view.estopped(robot) and self._navigating(robot)
 
     def _navigating(self, robot: str) -> bool:
-        task = self.service.tasks.active.get(robot)
+        task = self.view.active_task(robot)
         return isinstance(task, NavTask) and task.nav is not None and not task.nav.state.done
 
     def _direction(self, robot: str, i: int, xy: np.ndarray) -> np.ndarray:
         """Where the robot wants to go: towards a point ahead on its plan, else its heading."""
-        task = self.service.tasks.active.get(robot)
+        task = self.view.active_task(robot)
         nav = task.nav if isinstance(task, NavTask) else None
         if nav is not None and nav.plans:
             target, _ = lookahead_point(nav.plans[-1].path, xy[i], 1.0)
             d = target - xy[i]
             if np.hypot(*d) > 1e-6:
                 return np.asarray(d / np.hypot(*d))
-        yaw = float(self.service.world.table.f["yaw"][i])
+        yaw = float(self.view.robots.yaw[i])
         return np.array([np.cos(yaw), np.sin(yaw)])
 
     def _blockers(self, robot: str, xy: np.ndarray) -> set[str]:
-        t = self.service.world.table
+        t = self.view.robots
         i = t.index(robot)
         rel = xy - xy[i]
-        gap = np.hypot(rel[:, 0], rel[:, 1]) - t.f["radius"] - t.f["radius"][i]
+        gap = np.hypot(rel[:, 0], rel[:, 1]) - t.radius - t.radius[i]
         d = self._direction(robot, i, xy)
         cos = (rel @ d) / np.maximum(np.hypot(rel[:, 0], rel[:, 1]), 1e-9)
         near = (gap < self.config.block_gap) & (cos > np.cos(self.config.block_angle))
@@ -244,8 +244,8 @@ class DeadlockMonitor:
 
     def _declare(self, kind: str, group: tuple[str, ...], now: float, xy: np.ndarray,
                  waited: dict[str, float]) -> None:
-        svc, cfg = self.service, self.config
-        t = svc.world.table
+        view, cfg = self.view, self.config
+        t = view.robots
         dl = Deadlock(f"d{next(_ids)}", kind, tuple(group), now, cfg.policy,
                       start_xy={r: (float(xy[t.index(r), 0]), float(xy[t.index(r), 1])) for r in group})
         dl.start_remaining = {r: self._remaining(r) for r in group}
@@ -265,13 +265,13 @@ class DeadlockMonitor:
         elif cfg.policy == "replan":
             action = "replanning around each other"
         dl.action = action
-        svc.events.publish(now, "deadlock", group, f"deadlock ({kind}) between {', '.join(group)}: {action}",
-                           id=dl.id, type=kind, policy=cfg.policy, winner=dl.winner)
+        view.publish(now, "deadlock", group, f"deadlock ({kind}) between {', '.join(group)}: {action}",
+                     id=dl.id, type=kind, policy=cfg.policy, winner=dl.winner)
 
     def _progressed(self, dl: Deadlock, robot: str, xy: np.ndarray) -> bool:
         """Gone, done, or closer to its goal along its path by 2 × progress_m than at detection (backing off
         does not count)."""
-        t = self.service.world.table
+        t = self.view.robots
         if not t.has(robot) or not self._commanded(robot):
             return True
         before, now = dl.start_remaining[robot], self._remaining(robot)
@@ -281,21 +281,21 @@ class DeadlockMonitor:
 
     def _remaining(self, robot: str) -> float:
         """Path length the robot's navigator has left (inf when it has none): progress means this shrinks."""
-        task = self.service.tasks.active.get(robot)
+        task = self.view.active_task(robot)
         left = task.progress.get("distance_remaining") if task is not None else None
         return float(left) if isinstance(left, int | float) and math.isfinite(left) else math.inf
 
     def _priority(self, robot: str) -> float:
-        task = self.service.tasks.active.get(robot)
+        task = self.view.active_task(robot)
         return float(task.priority) if task is not None else -np.inf  # an idle robot always yields
 
     def _backoff(self, robot: str, winner: str) -> Command:
         """Move away from the robots around (the closest most), sideways out of the winner's lane and away from
         walls, as (v, ω) through the point ahead of the axle."""
-        svc = self.service
-        t = svc.world.table
+        view = self.view
+        t = view.robots
         i = t.index(robot)
-        xy = np.column_stack([t.f["x"], t.f["y"]])
+        xy = t.xy
         rel = xy[i] - xy
         d2 = np.maximum((rel**2).sum(axis=1), 1e-6)
         near = (d2 < 4.0) & (np.arange(len(xy)) != i)
@@ -306,37 +306,37 @@ class DeadlockMonitor:
             lane = self._direction(winner, k, xy)
             side = np.array([lane[1], -lane[0]])  # out of the winner's lane, on the side we are already on
             e = e + (side if side @ (xy[i] - xy[k]) >= 0 else -side)
-        dist, normal = svc.static_clearance().query(xy[i:i + 1])
+        dist, normal = view.static_clearance().query(xy[i:i + 1])
         if dist[0] < 0.8:
             e -= normal[0] * 2.0 * (1.0 - dist[0] / 0.8)
-        wall_gap = float(dist[0] - t.f["radius"][i])
+        wall_gap = float(dist[0] - t.radius[i])
         n = float(np.hypot(*e))
         if n < 1e-6:
             return (0.0, 0.0)
         u = e / n * self.config.backoff_speed
-        yaw = float(t.f["yaw"][i])
+        yaw = float(t.yaw[i])
         h, hp = np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])
-        gap = np.sqrt(d2[near]) - t.f["radius"][near] - t.f["radius"][i] if near.any() else np.array([np.inf])
+        gap = np.sqrt(d2[near]) - t.radius[near] - t.radius[i] if near.any() else np.array([np.inf])
         if gap.min() < CONTACT_GAP or wall_gap < 2 * CONTACT_GAP:  # touching: a turn would swing a corner
             facing = float(normal[0] @ h)  # into it; straight out first (away from the wall when at one)
             sign = -np.sign(facing) if wall_gap < 2 * CONTACT_GAP and abs(facing) > 0.2 else np.sign(u @ h)
             return float(sign or -1.0) * self.config.backoff_speed, 0.0
-        return float(u @ h), float(np.clip((u @ hp) / OFFSET, -t.f["max_w"][i], t.f["max_w"][i]))
+        return float(u @ h), float(np.clip((u @ hp) / OFFSET, -t.max_w[i], t.max_w[i]))
 
     def _replan(self, dl: Deadlock, now: float) -> bool:
         """Each go-to robot of the group plans again with the others as temporary keep-outs."""
-        svc = self.service
-        t = svc.world.table
-        tasks = {r: svc.tasks.active.get(r) for r in dl.robots}
+        view = self.view
+        t = view.robots
+        tasks = {r: view.active_task(r) for r in dl.robots}
         if not all(isinstance(task, GoToTask) and task.nav is not None for task in tasks.values()):
             return False
         for r, task in tasks.items():
             assert isinstance(task, GoToTask) and task.nav is not None
-            cm = svc.costmap_for(r)
+            cm = view.costmap(r)
             for o in dl.robots:
                 if o != r:
                     j = t.index(o)
-                    cm.add_keepout(_disc(float(t.f["x"][j]), float(t.f["y"][j]), float(t.f["radius"][j]) + 0.1))
+                    cm.add_keepout(_disc(float(t.x[j]), float(t.y[j]), float(t.radius[j]) + 0.1))
             goal = task.nav.status().goal
             assert goal is not None
             task.nav.set_goal(goal, now, align_yaw=bool(task.params.get("align_yaw", False)))
@@ -348,10 +348,10 @@ class DeadlockMonitor:
         for r, until in list(self._keepouts.items()):
             if now >= until:
                 del self._keepouts[r]
-                if self.service.world.table.has(r):
-                    cm = self.service.costmap_for(r)
+                if self.view.robots.has(r):
+                    cm = self.view.costmap(r)
                     cm.clear_keepouts()
-                    for poly in self.service.list_keepouts():
+                    for poly in self.view.keepouts():
                         cm.add_keepout(poly)
 
     def _update_open(self, now: float, xy: np.ndarray, waited: dict[str, float]) -> None:
@@ -366,8 +366,8 @@ class DeadlockMonitor:
             if moved or stuck or now - dl.detected > self.config.resolve_timeout_s:
                 dl.state, dl.ended = ("resolved" if moved else "unresolved"), now
                 kind = "deadlock_resolved" if moved else "deadlock_unresolved"
-                self.service.events.publish(now, kind, dl.robots, f"deadlock {dl.id} {dl.state} after "
-                                            f"{now - dl.detected:.1f} s", id=dl.id)
+                self.view.publish(now, kind, dl.robots, f"deadlock {dl.id} {dl.state} after "
+                                  f"{now - dl.detected:.1f} s", id=dl.id)
 
 
 

@@ -43,11 +43,10 @@ class FleetOps(ServiceCore):
 
     def _init_fleet_ops(self) -> None:
         """Called from FleetService._build after the control loop exists (register behaviours, avoidance)."""
-        svc = cast("FleetService", self)
-        self.behaviours = BehaviourManager(svc)
+        self.behaviours = BehaviourManager(self.view)
         self.control.add_source(self.behaviours)  # after the task manager: a task wins over a behaviour
         deadlock = self.config.deadlock
-        self.deadlocks = DeadlockMonitor(svc, _validated(DeadlockConfig, dict(deadlock), "deadlock"))
+        self.deadlocks = DeadlockMonitor(self.view, _validated(DeadlockConfig, dict(deadlock), "deadlock"))
         self.control.sources.insert(0, self.deadlocks)  # a back-off overrides the task it interrupts
         self.avoidance: Avoidance = make_avoidance(self.config.avoidance)
         self.control.avoidance = self.avoidance

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
-from fleet import validation
+from fleet import task_params, validation
 from fleet.core import ServiceCore
 from planning import LayeredCostmap, OccupancyGrid, PlanResult, get_planner, rasterize_world
 from planning.grid import UNKNOWN_CELL
@@ -87,7 +87,7 @@ class NavOps(ServiceCore):
                     priority: int = 0, client: str = "default") -> dict[str, Any]:
         """Queue a task; returns its id at once (long actions report through task_status). Refused while the
         robot (or the fleet) is e-stopped: a queued goal must not drive off on re-arm."""
-        validation.params("params", params or {}, self.bounds)
+        params = task_params.check(type_name, params, self.bounds)
 
         def do() -> dict[str, Any]:
             self.registry.get(robot)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 from pydantic import ValidationError
 
-from fleet import validation
+from fleet import task_params, validation
 from fleet.allocation import (
     METHODS,
     Allocation,
@@ -103,12 +103,12 @@ class TaskOps(ServiceCore):
                    earliest_start: float | None = None, deadline: float | None = None,
                    id: str | None = None) -> dict[str, Any]:
         """Queue a task for no robot in particular; `assign_tasks()` hands the queue out."""
-        validation.params("params", params or {}, self.bounds)
+        params = task_params.check(type_name, params, self.bounds)
         if len(self._unassigned) >= validation.MAX_TASKS:
             raise FleetError(ErrorCode.LIMIT_EXCEEDED, f"the queue holds {validation.MAX_TASKS} tasks already",
                              "assign_tasks first")
-        req = make_request(parse_spec({"type": type_name, "params": params or {}, "priority": priority,
-                                       "earliest_start": earliest_start, "deadline": deadline, "id": id}), self._svc())
+        req = make_request(parse_spec({"type": type_name, "params": params, "priority": priority,
+                                       "earliest_start": earliest_start, "deadline": deadline, "id": id}), self.view)
 
         def do() -> dict[str, Any]:
             if req.id in self._unassigned:
@@ -131,11 +131,9 @@ class TaskOps(ServiceCore):
         are submitted to the robots' task queues. Options: see AllocationOptions (cost, speed_factor, ...)."""
         if tasks is not None:
             validation.count("number of tasks", len(tasks), validation.MAX_TASKS)
-            for i, t in enumerate(tasks):
-                validation.params(f"tasks[{i}]", t, self.bounds)
+            tasks = [_checked_spec(i, t, self.bounds) for i, t in enumerate(tasks)]
         opts = _options(method, options)
-        svc = self._svc()
-        requests = (None if tasks is None else [make_request(parse_spec(t), svc) for t in tasks])
+        requests = (None if tasks is None else [make_request(parse_spec(t), self.view) for t in tasks])
         inputs, now, keepouts, radius, pool = self.call(lambda: self._allocation_inputs(robots, opts))
         requests = pool if requests is None else requests
         b = self.config.battery
@@ -208,6 +206,15 @@ class TaskOps(ServiceCore):
                             f"{len(result.assignments)} tasks assigned by {result.method}, "
                             f"{len(result.infeasible)} infeasible", method=result.method,
                             assigned=len(result.assignments), infeasible=[i.request for i in result.infeasible])
+
+
+def _checked_spec(i: int, t: Any, bounds: validation.Bounds) -> dict[str, Any]:
+    """One task spec of assign_tasks: its params by its type's model, its other numbers finite and bounded."""
+    if not isinstance(t, dict):
+        raise validation.bad(f"tasks[{i}]", f"expected {{type, params, ...}}, got {type(t).__name__}")
+    rest = {k: v for k, v in t.items() if k != "params"}
+    validation.params(f"tasks[{i}]", rest, bounds)
+    return rest | {"params": task_params.check(t.get("type"), t.get("params"), bounds, f"tasks[{i}].params")}
 
 
 def _options(method: str, options: dict[str, Any]) -> AllocationOptions:

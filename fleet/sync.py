@@ -13,7 +13,7 @@ from fleet.types import TaskState
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 _ids = itertools.count(1)
 
@@ -29,9 +29,9 @@ class Barrier:
     def new(robots: tuple[str, ...]) -> Barrier:
         return Barrier(f"sync{next(_ids)}", robots)
 
-    def waiting_for(self, service: FleetService) -> list[str]:
+    def waiting_for(self, view: FleetView) -> list[str]:
         """Robots whose sync task is still queued behind other work (an ended task no longer holds anyone)."""
-        return [r for r, tid in self.tasks.items() if service.tasks.get(tid).state is TaskState.QUEUED]
+        return [r for r, tid in self.tasks.items() if view.task_state(tid) is TaskState.QUEUED]
 
 
 @register_task
@@ -41,9 +41,9 @@ class SyncTask(Task):
 
     type_name = "sync"
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, view: FleetView) -> None:
         bid = self.params.get("barrier")
-        if bid not in service.barriers:
+        if bid not in view.barriers:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown barrier {bid!r}",
                              "use fleet_command('sync', robots) to create one")
         t = self.params.get("timeout_s")
@@ -51,8 +51,8 @@ class SyncTask(Task):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"timeout_s must be > 0, got {t!r}")
 
     def step(self, ctx: TaskContext) -> Command:
-        barrier = ctx.service.barriers[self.params["barrier"]]
-        missing = barrier.waiting_for(ctx.service)
+        barrier: Barrier = ctx.view.barriers[self.params["barrier"]]
+        missing = barrier.waiting_for(ctx.view)
         self.progress = {"barrier": barrier.id, "waiting_for": missing}
         if not missing:  # the robots that checked earlier in this tick go on at the next one
             barrier.released_at = barrier.released_at if barrier.released_at is not None else ctx.now

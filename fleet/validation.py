@@ -141,17 +141,18 @@ def polygon(field: str, pts: Any, bounds: Bounds | None = None) -> list[tuple[fl
     return out
 
 
-def coverage(outline: Sequence[tuple[float, float]], tool_width: Any) -> None:
-    """Bound the coverage plan: lanes = (swept area / tool width) / longest side."""
+def coverage(outline: Sequence[tuple[float, float]], tool_width: Any, overlap: float = 0.0) -> None:
+    """Bound the coverage plan: lanes = longest side / pass spacing, the spacing tool_width · (1 − overlap)."""
     from shapely.geometry import Polygon as ShapelyPolygon
 
     w = in_range("tool_width", tool_width, MIN_TOOL_WIDTH_M, 10.0)
+    o = in_range("overlap", overlap, 0.0, 0.9)
     shape = ShapelyPolygon(outline)
     x0, y0, x1, y1 = shape.bounds
-    lanes = max(x1 - x0, y1 - y0) / w
+    lanes = max(x1 - x0, y1 - y0) / (w * (1.0 - o))
     if lanes > MAX_COVERAGE_LANES:
-        raise bad("polygon", f"{lanes:.0f} coverage lanes at tool_width {w:g} m (limit {MAX_COVERAGE_LANES})",
-                  "cover a smaller area or use a wider tool")
+        raise bad("polygon", f"{lanes:.0f} coverage lanes at tool_width {w:g} m, overlap {o:g} (limit "
+                  f"{MAX_COVERAGE_LANES})", "cover a smaller area, use a wider tool or less overlap")
 
 
 _POINT_KEYS = ("goal", "pose", "target", "start")

@@ -83,7 +83,9 @@ class ZenohConfig(StrictModel):
     lockstep: LockstepConfig = Field(default_factory=LockstepConfig)
     ros2: Ros2Config = Field(default_factory=Ros2Config)
     streams: StreamsConfig = Field(default_factory=StreamsConfig)
-    query_workers: int = Field(4, ge=1, le=64, description="threads that serve queries (they wait on the world)")
+    query_workers: int = Field(4, ge=1, le=64, description="threads that decode and answer queries")
+    query_budget_s: float = Field(5.0, gt=0, le=60, description="wall seconds the world has to answer a query; "
+                                  "then it is answered TIMEOUT (below a caller's usual 10 s)")
     control_hz: float | None = Field(None, ge=1, le=200, description="the world's control rate (FleetConfig); "
                                      "null: the fleet config's")
     odom_hz: float | None = Field(None, gt=0, le=1000, description="publish odom at most this often (sim time); "

@@ -1,6 +1,7 @@
 """Ray casting for fleets through Intel Embree (`embreex`): static geometry in one BVH built once per model
-version, robots and movable models in a small scene rebuilt per cast from their poses (shapes are captured
-once per body and transformed in numpy, grouped by identical shape sets).
+version; upright robots (kinematic, posed by the robot table) intersected in closed form per (ray, robot) pair
+(sim/raycast_robots.py), so robots that moved need no rebuild; bodies moved by physics (dynamic robots,
+movable models) in a small scene rebuilt per cast from their link poses.
 
 Boxes, meshes and planes are exact triangles; cylinders, spheres and capsules are enclosing proxies whose hits
 are refined analytically (sim/raycast_exact.py) in float64. A ray that passes a proxy without touching the
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sim import raycast_exact as exact
+from sim import raycast_robots as robots
 from sim.raycast_shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape, body_shapes, link_matrix
 from sim.types import Mesh
 
@@ -24,7 +26,6 @@ if TYPE_CHECKING:
     from sim.world import World
 
 MAX_PASSES = 8  # continuations per ray (a ray crossing a proxy needs two)
-MERGE_FACES = 50_000  # static scenes up to this size are rebuilt with the robots each cast (one traversal)
 REACH_CELL = 1.0  # m: ray origins are binned in cells this size to find the robots the rays can reach
 MAX_REACH_TESTS = 100_000  # cells × robots above which robots are not culled
 STEP_M = 2e-5  # m: how far past a passed-through surface a continued ray starts (> float32 spacing at 100 m)
@@ -175,12 +176,16 @@ class EmbreeCaster:
 
     def __init__(self, world: World) -> None:
         self.world = world
+        # False: upright robots are built as triangles into a scene every cast (the approach before issue 17a,
+        # kept as the benchmarks' same-run baseline and for robot shapes the closed form does not cover).
+        self.closed_form = True
         self._static: _Geometry | None = None
         self._static_key: tuple[object, ...] | None = None
         self._templates: dict[tuple[int, str], list[Shape]] = {}
         self._groups: dict[bytes, list[Shape]] = {}
         self._link_templates: dict[tuple[int, str], dict[int, list[Shape]]] = {}
         self._upright: list[tuple[list[Shape], np.ndarray, float]] = []
+        self._forms: dict[int, list[robots.ShapeForm]] = {}  # id(template shape list) → closed-form shapes
         self._upright_key: tuple[object, ...] | None = None
 
     def _mesh_table(self) -> dict[tuple[int, int], list[Mesh | None]]:
@@ -208,10 +213,8 @@ class EmbreeCaster:
                 shapes = body_shapes(models.client, u, meshes)
                 if shapes:
                     parts.append((shapes, link_matrix(models.client, u, -1)[None], np.array([u])))
-            self._static = _build(parts)
+            self._static = _commit([_build(parts)])  # its BVH is built here, once per model version
             self._static_key = key
-            if self._static is not None and len(self._static.faces) > MERGE_FACES:
-                self._static = _commit([self._static])  # a big static scene keeps its own BVH
         return self._static
 
     def _template(self, uid: int, label: str) -> list[Shape]:
@@ -257,20 +260,25 @@ class EmbreeCaster:
             self._upright_key = key
         return self._upright
 
-    def _dynamic_scene(self, z_band: tuple[float, float], reach: tuple[np.ndarray, float] | None = None
+    def _dynamic_scene(self, z_band: tuple[float, float], rays: tuple[np.ndarray, np.ndarray] | None = None
                        ) -> list[_Geometry]:
-        """The moving bodies as geometry. With `reach` (centres of the cells holding the ray origins, and the
-        farthest a ray can get from its cell's centre) kinematic robots no ray can reach are left out: a fleet
-        casting a few lidars per step (spread phases) builds only the robots around them."""
+        """The moving bodies as geometry. With `rays` (origins, directions), kinematic robots built as triangles
+        (a shape the closed form does not cover) that no ray can reach are left out (see _reach)."""
         w = self.world
         t, f = w.table, w.table.f
         kin = t.b["kinematic"]
         upright: list[Part] = []
+        reach: tuple[np.ndarray, float] | None = None
+        computed = False
         # When the engine steps (a dynamic robot or model exists), gravity also acts on kinematic robots between
         # teleports, so their bodies are read from PyBullet like the rest; otherwise the table is the pose.
         physics = bool((~kin).any()) or w.models.has_dynamic_models()
         if len(t) and not physics:
             for shapes, rows, plan_r in self._upright_groups():
+                if self.closed_form and robots.supported(shapes):
+                    continue  # cast in closed form (_closed_form_groups)
+                if rays is not None and not computed:
+                    reach, computed = self._reach(*rays), True
                 if reach is not None:
                     cells, far = reach
                     dx = f["x"][rows][None, :] - cells[:, :1]
@@ -299,22 +307,34 @@ class EmbreeCaster:
         moved = [(shapes, np.stack(ms), np.asarray(us)) for shapes, ms, us in groups.values() if shapes]
         return [g for g in (_build(upright, z_band), _build(moved)) if g is not None]
 
-    def _scenes(self, z_band: tuple[float, float], reach: tuple[np.ndarray, float] | None = None
+    def _scenes(self, z_band: tuple[float, float], rays: tuple[np.ndarray, np.ndarray] | None = None
                 ) -> list[_Geometry]:
-        """The scenes to cast against: a small static part is rebuilt with the moving bodies into one scene
-        (one traversal per ray); a big one keeps its BVH from load and the moving bodies get their own."""
+        """The Embree scenes to cast against: the static one (its BVH from load) and, when bodies move under
+        physics (or a robot has a shape the closed form does not cover), a small one of those, built now."""
         static = self._static_scene()
-        moving = self._dynamic_scene(z_band, reach)
-        if static is not None and static.scene is not None:
-            return [static] + ([g] if (g := _commit(moving)) is not None else [])
-        g = _commit([static, *moving])
-        return [g] if g is not None else []
+        moving = _commit(self._dynamic_scene(z_band, rays))
+        return [g for g in (static, moving) if g is not None]
+
+    def _closed_form_groups(self) -> list[tuple[list[robots.ShapeForm], np.ndarray]]:
+        """(closed-form shapes, table rows) of the upright robots cast without a BVH; none under physics."""
+        w = self.world
+        t = w.table
+        if not self.closed_form or not len(t) or bool((~t.b["kinematic"]).any()) or w.models.has_dynamic_models():
+            return []
+        out = []
+        for shapes, rows, _ in self._upright_groups():
+            if shapes and robots.supported(shapes):
+                if id(shapes) not in self._forms:
+                    self._forms[id(shapes)] = [robots.shape_form(s) for s in shapes]
+                out.append((self._forms[id(shapes)], rows))
+        return out
 
     def forget(self) -> None:
         """Drop every cached shape (bodies were removed or re-created, e.g. after a snapshot restore)."""
         self._templates.clear()
         self._groups.clear()
         self._link_templates.clear()
+        self._forms.clear()
         self._static_key = self._upright_key = None
 
     def _reach(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, float] | None:
@@ -337,10 +357,18 @@ class EmbreeCaster:
         if len(o) == 0:
             return np.ones(0), np.full(0, -1, np.int64)
         z = np.concatenate([o[:, 2], o[:, 2] + d[:, 2]])
-        for g in self._scenes((float(z.min()), float(z.max())), self._reach(o, d)):
-            t, u = _cast(g, o, d, np.minimum(best, 1.0))  # a later scene only looks closer than the hits so far
-            nearer = t < best
-            best[nearer], uids[nearer] = t[nearer], u[nearer]
+        z_band = (float(z.min()), float(z.max()))
+        groups = self._closed_form_groups()
+        if groups:  # robots first: their hits shorten the rays the BVH traverses
+            t = self.world.table
+            rg = robots.group_rays(o, d)
+            pose = np.column_stack([t.f["x"], t.f["y"], t.f["yaw"]])
+            for forms, rows in groups:
+                robots.cast_upright(rg, o, d, forms, pose[rows], t.body[rows], z_band, best, uids)
+        for g in self._scenes(z_band, (o, d)):
+            t_g, u = _cast(g, o, d, np.minimum(best, 1.0))  # a later scene only looks closer than the hits so far
+            nearer = t_g < best
+            best[nearer], uids[nearer] = t_g[nearer], u[nearer]
         hit = np.isfinite(best) & (best <= 1.0)
         return np.where(hit, best, 1.0), np.where(hit, uids, -1)
 

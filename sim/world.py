@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from sim import world_sensors
 from sim.drive import integrate_unicycle, limit_twist, wheel_speeds
 from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.kinematic_collisions import RawContact, resolve_kinematic_collisions
@@ -21,9 +22,8 @@ from sim.ray_backends import RayBackends, cast_pybullet
 from sim.robot_body import RobotBody
 from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
 from sim.robot_table import RobotTable
-from sim.sensors import camera
-from sim.sensors.inertial import imu_reading, odometry_reading, sample_imu, sample_odometry
-from sim.sensors.lidar import LidarConfig, cast_scans
+from sim.sensors.inertial import imu_reading, odometry_reading
+from sim.sensors.lidar import LidarConfig
 from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading, LidarScan, OdometryReading, Pose2D
 from sim.world_types import CommandResult, ModelState, SensorFault
 
@@ -267,45 +267,10 @@ class World:
             read_dynamic_states(self, rows)
 
     def _sample_sensors(self) -> None:
-        t, now = self.table, self._time
-        if not len(t):
-            return
-        f, b = t.f, t.b
-        eps = 1e-9
-        due = (f["next_lidar"] <= now + eps) & (f["lidar_period"] > 0)
-        if due.any():
-            f["next_lidar"][due] += f["lidar_period"][due] * np.ceil((now + eps - f["next_lidar"][due])
-                                                                   / f["lidar_period"][due]).clip(min=1)
-            rows = np.flatnonzero(due & ~b["lidar_dropout"])
-            for scan in cast_scans(t, rows, self._lidar_cfg, self.cast_rays, self.rng, now):
-                self._scans[scan.robot] = scan
-                self._emit("scan", scan)
-        for kind, sampler in (("imu", sample_imu), ("odom", sample_odometry)):
-            nxt, per = f[f"next_{kind}"], f[f"{kind}_period"]
-            due = (nxt <= now + eps) & (per > 0)
-            if due.any():
-                nxt[due] += per[due] * np.ceil((now + eps - nxt[due]) / per[due]).clip(min=1)
-                sampler(t, due & ~b[f"{kind}_dropout"], self.rng, now)
-                if self._wants(kind):
-                    for i in np.flatnonzero(due & ~b[f"{kind}_dropout"]):
-                        self._emit(kind, imu_reading(t, int(i)) if kind == "imu" else odometry_reading(t, int(i)))
-        if self.step_count % self._contact_every == 0:
-            self._collect_dynamic_contacts()
+        world_sensors.sample_sensors(self)  # due lidars in one batched ray cast, IMU, odometry, contacts
 
     def _collect_dynamic_contacts(self) -> None:
-        from sim.robot_spawn import dynamic_contacts
-
-        rows = self._dynamic_rows()
-        if rows.size == 0:
-            return
-        found = dynamic_contacts(self, set(self.table.body[rows].tolist()))
-        for i in rows:
-            name = self.table.names[i]
-            self._contacts[name] = tuple(found.get(int(self.table.body[i]), ()))
-            self.table.b["in_collision"][i] = bool(self._contacts[name])
-        if self._wants("contact"):
-            for name in self.table.names:
-                self._emit("contact", self.latest_contacts(name))
+        world_sensors.collect_dynamic_contacts(self)
 
     def _check_physics_health(self) -> None:
         f = self.table.f
@@ -358,35 +323,11 @@ class World:
     def render_camera(self, name: str, *, rgb: bool = True, depth: bool = True, segmentation: bool = True,
                       which: str = "rgb") -> CameraImage:
         """Render the robot's RGB camera (`which="rgb"`, 640×480) or depth camera (`which="depth"`, 320×240)."""
-        i = self._row(name)
-        spec = self.specs[name]
-        if self._faults.get((name, "camera"), SensorFault()).dropout:
-            raise FleetError(ErrorCode.UNSUPPORTED, f"camera of '{name}' is failed (injected dropout)")
-        f = self.table.f
-        pose = camera.camera_world_pose(float(f["x"][i]), float(f["y"][i]), float(f["yaw"][i]),
-                                        camera.camera_mount(spec))
-        if which == "depth":
-            d = spec.sensors.depth
-            return camera.render(self.client, name, self._time, pose, d.width, d.height, d.fov_deg, 0.05,
-                                 d.range_max * 1.5, rgb=rgb, depth=depth, segmentation=segmentation,
-                                 depth_range=(d.range_min, d.range_max), depth_noise=d.noise_std, rng=self.rng)
-        c = spec.sensors.camera
-        return camera.render(self.client, name, self._time, pose, c.width, c.height, c.fov_deg, c.near, c.far,
-                             rgb=rgb, depth=depth, segmentation=segmentation, depth_range=None, depth_noise=0.0,
-                             rng=self.rng)
+        return world_sensors.render_camera(self, name, rgb=rgb, depth=depth, segmentation=segmentation, which=which)
 
     def set_sensor_fault(self, robot: str, sensor: str, *, dropout: bool = False, noise_scale: float = 1.0) -> None:
         """Failure injection: make a sensor stop publishing (dropout) or get noisier (noise_scale × σ)."""
-        i = self._row(robot)
-        valid = ("lidar", "imu", "odom", "camera")
-        if sensor not in valid:
-            raise unknown_name("sensor", sensor, valid, ErrorCode.INVALID_ARGUMENT)
-        if not (math.isfinite(noise_scale) and noise_scale >= 0):
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"noise_scale must be ≥ 0, got {noise_scale}")
-        self._faults[(robot, sensor)] = SensorFault(dropout, noise_scale)
-        if sensor != "camera":
-            self.table.b[f"{sensor}_dropout"][i] = dropout
-            self.table.f[f"{sensor}_noise_scale"][i] = noise_scale
+        world_sensors.set_sensor_fault(self, robot, sensor, dropout=dropout, noise_scale=noise_scale)
 
     def subscribe(self, callback: Callable[[Reading], None],
                   kinds: Iterable[str] = ("scan", "imu", "odom", "contact")) -> Callable[[], None]:

@@ -15,7 +15,9 @@ Odometry (`odometry=`):
 - "odom_increments" (default, the honest one): the chain of increments between consecutive ODOM lines,
   interpolated to each scan's stamp. Radish "-corrected" logs restart the ODOM pose at each laser line's
   corrected pose (the first ODOM after a laser line equals its pose): that restart is not motion, so the
-  chain skips it. A step with no ODOM sample between two scans has no odometry (`odom_valid` False).
+  chain skips it. A step with no ODOM sample between two scans has no odometry (`odom_valid` False). When
+  the stamps carry no time (all laser stamps equal, or either stream going backwards) the chain is read in
+  file order: each scan takes the latest chain sample written before its line.
 - "laser_pose": the laser lines' own pose fields (in "-corrected" logs these are the corrected poses).
 - "none": no odometry.
 The laser lines' robot poses are always exposed as `reference` (a reference, never an input).
@@ -179,11 +181,14 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
         return [None] * n, np.zeros(n, dtype=bool)
     t = np.array(times)
     c = np.array(chain)
-    monotone = bool(np.all(np.diff(t) >= 0))
+    ts_all = np.array([x.scan.stamp if x.scan is not None else 0.0 for x in parsed if x.kind != "ODOM"])
+    # Time interpolation needs informative stamps: both streams non-decreasing and spread out. Some logs
+    # (e.g. Radish orebro) write every laser stamp as 0 and leave the ODOM stamps as garbage: file order then.
+    timed = bool(np.all(np.diff(t) >= 0) and np.all(np.diff(ts_all) >= 0) and t[-1] > t[0]
+                 and ts_all[-1] > ts_all[0])
     out: list[tuple[float, float, float] | None] = []
-    for k, item in enumerate(x for x in parsed if x.kind != "ODOM"):
-        ts = item.scan.stamp if item.scan is not None else 0.0
-        if monotone and t[0] <= ts <= t[-1]:
+    for k, ts in enumerate(ts_all.tolist()):
+        if timed and t[0] <= ts <= t[-1]:
             j = int(np.searchsorted(t, ts, side="right"))
             j = min(max(j, 1), len(t) - 1)
             out.append(_interp(t[j - 1], c[j - 1], t[j], c[j], ts))

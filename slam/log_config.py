@@ -8,6 +8,9 @@ from typing import Literal
 from pydantic import Field
 
 from sim.config import StrictModel
+from slam.hypotheses import HypothesesConfig
+from slam.match_covariance import MatchCovarianceConfig
+from slam.motion_prior import MotionPriorConfig
 from slam.types import MappingConfig
 
 
@@ -94,6 +97,9 @@ class LogSlamConfig(StrictModel):
     min_range: float = Field(0.1, ge=0, description="m")
     point_spacing: float = Field(0.05, gt=0, description="scan points thinned to this spacing, m")
     frontend: FrontEndConfig = FrontEndConfig()
+    motion_prior: MotionPriorConfig = MotionPriorConfig()
+    match_covariance: MatchCovarianceConfig = MatchCovarianceConfig()
+    hypotheses: HypothesesConfig = HypothesesConfig()
     loops: LoopConfig = LoopConfig()
     mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes
     final_batch: bool = Field(False, description="also a batch Levenberg-Marquardt pass over the whole graph at "

@@ -64,7 +64,8 @@ def run_slam(log: LoadedLog, config: LogSlamConfig, progress: Progress | None = 
     n = len(log.records)
     t0 = time.perf_counter()
     for k, rec in enumerate(log.records):
-        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]))
+        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]),
+                      lookahead=log.records[k + 1].scan if k + 1 < n else None)
         if progress is not None and (k % 25 == 0 or k == n - 1):
             progress(k + 1, n, 1000 * (time.perf_counter() - t0) / (k + 1))
     slam.finish()
@@ -89,7 +90,7 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         "log": source, "kind": log.kind, "scans": n, "odometry": slam.config.odometry,
         "odometry_steps_missing": int((~log.odom_valid[1:]).sum()) if n > 1 else 0,
         "front_end": {"matched": slam.stats.matched, "wide_window": slam.stats.wide,
-                      "odometry_only": slam.stats.odometry_only},
+                      "odometry_only": slam.stats.odometry_only, "ambiguous": slam.stats.ambiguous},
         "loop_closures": {"accepted": sum(c.accepted for c in closures),
                           "rejected": sum(not c.accepted for c in closures),
                           "reasons": dict(slam.loops.reasons), "list": [c.as_dict() for c in closures]},

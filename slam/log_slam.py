@@ -21,11 +21,15 @@ from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.csm import MatchGrid, search
+from slam.hypotheses import WideSearch, decide
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
 from slam.mapping import OccupancyMapper
+from slam.match_covariance import ambiguous_covariance
+from slam.motion_prior import at_window_edge, predicted_step
 from slam.pose_graph import PoseGraph
+from slam.surface_fill import fill_surfaces
 
 
 def thin(points: np.ndarray, spacing: float) -> np.ndarray:
@@ -46,6 +50,7 @@ class FrontEndStats:
     matched: int = 0  # edges from the normal window
     wide: int = 0  # edges that needed the wide window
     odometry_only: int = 0  # no match: the odometry (or no motion) with a loose σ
+    ambiguous: int = 0  # wide matches whose score surface has a second peak (edge σ from the surface)
     local_map_builds: int = 0
     times: list[float] = field(default_factory=list)  # s of wall time per scan
     cpu_times: list[float] = field(default_factory=list)  # s of process CPU time per scan (all threads)
@@ -67,16 +72,23 @@ class LogSlam:
         self._local: tuple[MatchGrid, IcpTarget] | None = None
         self._local_at = -1  # node index the local map was last built at
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
+        self._local_filled = False
+        self._next_scan: LidarScan | None = None
         self.loops = LoopFinder(cfg.loops, self)
         fe = cfg.frontend
         self._edge_floor = np.diag([fe.sigma_floor_xy ** 2, fe.sigma_floor_xy ** 2, fe.sigma_floor_yaw ** 2])
         self._odom_cov = np.diag([fe.odom_sigma_xy ** 2, fe.odom_sigma_xy ** 2, fe.odom_sigma_yaw ** 2])
+        mp = cfg.motion_prior
+        self._prior_cov = np.diag([mp.sigma_xy ** 2, mp.sigma_xy ** 2, mp.sigma_yaw ** 2])
 
     # ---- per scan ------------------------------------------------------------------------------------
 
-    def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True) -> Pose2D:
+    def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True,
+                 lookahead: LidarScan | None = None) -> Pose2D:
+        """`lookahead`: the next scan, if known (a log), to settle a weak wide match (`slam.hypotheses`)."""
         t0, c0 = time.perf_counter(), time.process_time()
         cfg = self.config
+        self._next_scan = lookahead
         pts, no_ret = self._preprocess(scan)
         o = odom.as_tuple() if odom is not None else None
         i = len(self.poses)
@@ -91,13 +103,13 @@ class LogSlam:
         has_odom = odom_valid and o is not None and self.odometry[-1] is not None
         if has_odom:
             delta = se2_between(self.odometry[-1], o)  # type: ignore[arg-type]
-        else:  # no odometry: constant velocity (the previous step) seeds the wide window
-            delta = se2_between(self.poses[-2], prev) if i >= 2 else (0.0, 0.0, 0.0)
+        else:  # no odometry: the motion prior (constant velocity) seeds the wide window
+            delta = predicted_step(self.poses, cfg.motion_prior.constant_velocity)
         guess = se2_compose(prev, delta)
         matched, cov = self._match(pts, guess, has_odom, delta)
         if matched is None:
             self.stats.odometry_only += 1
-            pose, rel, cov = guess, delta, self._odom_cov
+            pose, rel, cov = guess, delta, self._odom_cov if has_odom else self._prior_cov
         else:
             pose, rel = matched, se2_between(prev, matched)
         self.graph.add_pose(pose, rel, cov)
@@ -131,7 +143,7 @@ class LogSlam:
         fe = self.config.frontend
         if len(pts) < 10:
             return None, self._odom_cov
-        grid, target = self._local_map()
+        grid, target = self._local_map(fill=not has_odom)
         sub = subsample(pts, fe.csm_points)
         res = None
         if has_odom:
@@ -142,9 +154,19 @@ class LogSlam:
         if wide:
             res = search(grid, subsample(pts, fe.wide_points), guess, window_xy=fe.wide_window_xy,
                          window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
-                         max_range_for_step=5.0)
-        if res is None:
+                         max_range_for_step=5.0, prior_weight_xy=self.config.motion_prior.weight_xy,
+                         prior_weight_yaw=self.config.motion_prior.weight_yaw)
+        if res is None or (wide and at_window_edge(res.pose, guess, fe.wide_window_xy, fe.wide_window_yaw,
+                                                   grid.resolution, math.radians(2))):
             return None, self._odom_cov
+        if wide and self._next_scan is not None:
+            mp = self.config.motion_prior
+            ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
+            nxt = subsample(self._preprocess(self._next_scan)[0], fe.wide_points)
+            res = decide(grid, subsample(pts, fe.wide_points), res, self.poses[-1], guess, nxt, ws,
+                         self.config.hypotheses)
+            if res is None:
+                return None, self._odom_cov
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
                   inlier_distance=fe.icp_max_correspondence, range_sigma=fe.icp_range_sigma)
         pose = fit.pose
@@ -155,6 +177,12 @@ class LogSlam:
         else:
             self.stats.matched += 1
         info = fit.information + 1e-9 * np.eye(3)
+        if wide:  # a second peak nearly as good (a corridor): the edge is weak along it
+            amb = ambiguous_covariance(grid, subsample(pts, fe.wide_points), pose,
+                                       fe.wide_window_xy, fe.wide_window_yaw, self.config.match_covariance)
+            if amb is not None:
+                self.stats.ambiguous += 1
+                return pose, np.linalg.inv(info) + self._edge_floor + amb
         if has_odom and not wide:  # fuse with the odometry prior: it holds where the scan is degenerate
             odo_info = np.linalg.inv(self._step_cov(delta))
             d = np.array(se2_between(guess, pose))
@@ -180,14 +208,16 @@ class LogSlam:
         syaw = fe.odom_step_sigma_yaw + fe.odom_step_sigma_per_rad * turn + fe.odom_step_sigma_yaw_per_m * dist
         return np.diag([sxy ** 2, sxy ** 2, syaw ** 2])
 
-    def _local_map(self) -> tuple[MatchGrid, IcpTarget]:
-        """The recent scans at their current poses, rebuilt when the robot moved or the poses changed."""
+    def _local_map(self, fill: bool = False) -> tuple[MatchGrid, IcpTarget]:
+        """The recent scans at their current poses, rebuilt when the robot moved or the poses changed.
+        `fill`: the match grid also covers the gaps between returns on one surface (`slam.surface_fill`),
+        for the wide search of a step without odometry; ICP always sees the returns only."""
         fe = self.config.frontend
         n = len(self.poses)
         last = self.poses[-1]
         moved = se2_between(self._local_pose, last)
         stale = (self._local is None or self._local_at < 0 or math.hypot(moved[0], moved[1]) > 0.1
-                 or abs(moved[2]) > 0.05)
+                 or abs(moved[2]) > 0.05 or fill != self._local_filled)
         if not stale and self._local is not None:
             return self._local
         path = np.array(self.path)
@@ -196,8 +226,13 @@ class LogSlam:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
         pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])
         pts = thin(pts, fe.resolution / 2)
-        self._local = (MatchGrid(pts, fe.resolution, fe.sigma, margin=1.0), IcpTarget.from_points(pts))
-        self._local_at, self._local_pose = n - 1, last
+        grid_pts = pts
+        if fill:
+            mp = self.config.motion_prior
+            grid_pts = thin(np.vstack([pts] + [se2.transform_points(self.poses[k], fill_surfaces(
+                self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)) for k in idx]), fe.resolution / 2)
+        self._local = (MatchGrid(grid_pts, fe.resolution, fe.sigma, margin=1.0), IcpTarget.from_points(pts))
+        self._local_at, self._local_pose, self._local_filled = n - 1, last, fill
         self.stats.local_map_builds += 1
         return self._local
 

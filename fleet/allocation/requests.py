@@ -13,7 +13,7 @@ from fleet.tasks.base import allocatable_types, task_class
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 _ids = itertools.count(1)
 
@@ -30,7 +30,7 @@ def parse_spec(raw: dict[str, Any] | TaskSpec) -> TaskSpec:
                          "a task is {type, params, priority?, earliest_start?, deadline?, id?}") from exc
 
 
-def make_request(spec: TaskSpec, service: FleetService) -> TaskRequest:
+def make_request(spec: TaskSpec, view: FleetView) -> TaskRequest:
     """Check the type and params now (bad input fails before anything is planned) and profile the work."""
     cls = task_class(spec.type)
     if not cls.allocatable:  # robot-bound types (return_home, follow_robot, ...) have no robot-free profile
@@ -39,7 +39,7 @@ def make_request(spec: TaskSpec, service: FleetService) -> TaskRequest:
     for name, value in (("earliest_start", spec.earliest_start), ("deadline", spec.deadline)):
         if value is not None and math.isnan(value):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{name} must be a sim time in seconds, got NaN")
-    profile = cls.work_profile(spec.params, service)
+    profile = cls.work_profile(spec.params, view)
     return TaskRequest(id=spec.id or f"q{next(_ids)}", type=spec.type, params=dict(spec.params), profile=profile,
                        priority=spec.priority,
                        earliest_start=-math.inf if spec.earliest_start is None else spec.earliest_start,

@@ -17,7 +17,7 @@ from planning.nav_types import NavState
 
 if TYPE_CHECKING:
     from fleet.avoidance.types import FleetFrame
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 
 def lookahead_point(path: np.ndarray, xy: np.ndarray, ahead: float) -> tuple[np.ndarray, float]:
@@ -35,15 +35,14 @@ def lookahead_point(path: np.ndarray, xy: np.ndarray, ahead: float) -> tuple[np.
     return np.array([x, y]), float(s[-1] - target)
 
 
-def preferred_velocities(service: FleetService, fr: FleetFrame, offset: float, lookahead: float,
+def preferred_velocities(view: FleetView, fr: FleetFrame, offset: float, lookahead: float,
                          min_speed: float) -> np.ndarray:
     """(n, 2) preferred velocities of the tracked points (offset ahead of each axle)."""
     h = np.column_stack([np.cos(fr.yaw), np.sin(fr.yaw)])
     hp = np.column_stack([-h[:, 1], h[:, 0]])
     pref = fr.cmd[:, 0:1] * h + offset * fr.cmd[:, 1:2] * hp
-    active_tasks = service.tasks.active
     for i in np.flatnonzero(fr.active):
-        task = active_tasks.get(fr.names[i])
+        task = view.active_task(fr.names[i])
         nav = task.nav if isinstance(task, GoToTask) else None
         if nav is None or not nav.plans or nav.state is not NavState.TRACKING:
             continue

@@ -8,7 +8,7 @@ from fleet.avoidance.registry import Command, register_avoidance
 from fleet.avoidance.types import AvoidanceConfig
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 
 class NoAvoidanceConfig(AvoidanceConfig):
@@ -21,7 +21,7 @@ class NoAvoidance:
 
     name = "none"
 
-    def filter(self, service: FleetService, desired: dict[str, Command]) -> dict[str, Command]:
+    def filter(self, view: FleetView, desired: dict[str, Command]) -> dict[str, Command]:
         return desired
 
     def settings(self) -> dict[str, Any]:

@@ -26,7 +26,7 @@ from fleet.avoidance.registry import Command, register_avoidance
 from fleet.avoidance.types import AvoidanceConfig, FleetFrame
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 
 class OrcaConfig(AvoidanceConfig):
@@ -67,10 +67,10 @@ class OrcaFilter:
                 "head_on_angle": float(np.arccos(self.head_on_cos)), "lookahead": self.lookahead,
                 "min_speed": self.min_speed, "wall_gap": self.wall_gap}
 
-    def filter(self, service: FleetService, desired: dict[str, Command]) -> dict[str, Command]:
-        frame = fleet_frame(service, desired)
-        pref = preferred_velocities(service, frame, self.offset, self.lookahead, self.min_speed)
-        out = self.solve(frame, 1.0 / service.config.control_hz, service.static_clearance(), pref)
+    def filter(self, view: FleetView, desired: dict[str, Command]) -> dict[str, Command]:
+        frame = fleet_frame(view, desired)
+        pref = preferred_velocities(view, frame, self.offset, self.lookahead, self.min_speed)
+        out = self.solve(frame, view.control_dt, view.static_clearance(), pref)
         return {n: (float(out[i, 0]), float(out[i, 1])) for i, n in enumerate(frame.names) if n in desired}
 
     # ---- the algorithm (pure: arrays in, arrays out) ------------------------------------------------------

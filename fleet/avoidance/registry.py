@@ -11,7 +11,7 @@ from fleet.avoidance.types import AvoidanceConfig
 from sim.plugins import PluginRegistry
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 Command = tuple[float, float]
 
@@ -21,7 +21,7 @@ class Avoidance(Protocol):
 
     name: str
 
-    def filter(self, service: FleetService, desired: dict[str, Command]) -> dict[str, Command]: ...
+    def filter(self, view: FleetView, desired: dict[str, Command]) -> dict[str, Command]: ...
 
     def settings(self) -> dict[str, Any]: ...
 

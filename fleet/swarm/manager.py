@@ -22,7 +22,7 @@ from fleet.swarm.unicycle import OFFSET, saturate, to_unicycle
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 Command = tuple[float, float]
 _ids = itertools.count(1)
@@ -64,8 +64,8 @@ def _round(m: dict[str, float]) -> dict[str, float | None]:
 
 
 class BehaviourManager:
-    def __init__(self, service: FleetService) -> None:
-        self.service = service
+    def __init__(self, view: FleetView) -> None:
+        self.view = view
         self.running: dict[str, RunningBehaviour] = {}  # every behaviour started (stopped ones kept for status)
         self._owner: dict[str, str] = {}  # robot → id of the running behaviour that drives it
 
@@ -73,13 +73,13 @@ class BehaviourManager:
 
     def start(self, type_name: str, robots: list[str], params: dict[str, Any] | None = None) -> RunningBehaviour:
         """Validate, take the robots over from whatever drives them, and start (on the sim thread)."""
-        svc = self.service
+        view = self.view
         spec = {**(params or {}), "type": type_name}
         behaviour_config(spec)  # unknown type / bad parameter → clear error before anything changes
         if len(set(robots)) != len(robots):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, "a robot is listed twice", f"robots: {', '.join(robots)}")
         for r in robots:
-            svc.registry.get(r)
+            view.robot_record(r)
         need = min_robots(type_name)
         if len(robots) < need:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"behaviour '{type_name}' needs at least {need} robots, "
@@ -87,28 +87,28 @@ class BehaviourManager:
         beh = make_behaviour(spec)
         state = self.state(robots)
         if isinstance(beh, LloydCoverage):  # only open floor counts as area to cover
-            beh.restrict(svc.static_clearance().query(beh.points)[0] > 0.0)
+            beh.restrict(view.static_clearance().query(beh.points)[0] > 0.0)
         beh.start(state)
         for r in robots:
-            svc.control.release(r, f"taken over by behaviour {type_name}")
-        run = RunningBehaviour(f"b{next(_ids)}", type_name, list(robots), dict(params or {}), beh, svc.world.time)
+            view.release(r, f"taken over by behaviour {type_name}")
+        run = RunningBehaviour(f"b{next(_ids)}", type_name, list(robots), dict(params or {}), beh, view.time)
         run.metrics = run.initial = beh.metrics(state)
         run.history.append({"t": 0.0, **run.metrics})
         self.running[run.id] = run
         self._owner.update({r: run.id for r in robots})
-        svc.events.publish(svc.world.time, "behaviour_started", robots, f"{type_name} {run.id} started",
-                           id=run.id, type=type_name)
+        view.publish(view.time, "behaviour_started", robots, f"{type_name} {run.id} started",
+                     id=run.id, type=type_name)
         return run
 
     def stop(self, behaviour_id: str, reason: str = "stopped by request") -> RunningBehaviour:
         run = self.get(behaviour_id)
         if run.state == "running":
-            run.state, run.reason, run.ended = "stopped", reason, self.service.world.time
+            run.state, run.reason, run.ended = "stopped", reason, self.view.time
             for r in run.robots:
                 if self._owner.get(r) == run.id:
                     del self._owner[r]
-            self.service.events.publish(run.ended, "behaviour_stopped", run.robots,
-                                        f"{run.type} {run.id} stopped: {reason}", id=run.id, metrics=run.metrics)
+            self.view.publish(run.ended, "behaviour_stopped", run.robots,
+                              f"{run.type} {run.id} stopped: {reason}", id=run.id, metrics=run.metrics)
         return run
 
     def get(self, behaviour_id: str) -> RunningBehaviour:
@@ -118,14 +118,13 @@ class BehaviourManager:
         return self.running[behaviour_id]
 
     def state(self, robots: list[str]) -> SwarmState:
-        w = self.service.world
-        t = w.table
+        view = self.view
+        t = view.robots
         idx = np.array([t.index(r) for r in robots], dtype=np.int64)
-        f = t.f
-        centre, yaw = np.column_stack([f["x"][idx], f["y"][idx]]), f["yaw"][idx]
+        centre, yaw = np.column_stack([t.x[idx], t.y[idx]]), t.yaw[idx]
         point = centre + OFFSET * np.column_stack([np.cos(yaw), np.sin(yaw)])
-        return SwarmState(tuple(robots), w.time, 1.0 / self.service.config.control_hz, point, centre, yaw,
-                          f["v"][idx], f["w"][idx], f["radius"][idx], f["max_v"][idx], OFFSET)
+        return SwarmState(tuple(robots), view.time, view.control_dt, point, centre, yaw,
+                          t.v[idx], t.w[idx], t.radius[idx], t.max_v[idx], OFFSET)
 
     # ---- ControlSource ---------------------------------------------------------------------------------
 
@@ -170,19 +169,19 @@ class BehaviourManager:
     # ---- one behaviour, one tick -------------------------------------------------------------------------
 
     def _tick(self, run: RunningBehaviour, now: float) -> dict[str, Command]:
-        svc = self.service
+        view = self.view
         state = self.state(run.robots)
         u = np.asarray(run.behaviour.velocities(state), dtype=float)
         driven = ~np.isnan(u).any(axis=1)
         u = saturate(np.nan_to_num(u) + self._keep_off_walls(state), state.max_v)
-        t = svc.world.table
+        t = view.robots
         idx = [t.index(r) for r in run.robots]
-        cmd = to_unicycle(u, state.yaw, state.max_v, t.f["max_w"][idx])
+        cmd = to_unicycle(u, state.yaw, state.max_v, t.max_w[idx])
         run.metrics = run.behaviour.metrics(state)
         if run.converged_at is None and run.behaviour.converged(state, run.metrics):
             run.converged_at = now
-            svc.events.publish(now, "behaviour_converged", run.robots, f"{run.type} {run.id} converged after "
-                               f"{now - run.started:.1f} s", id=run.id, metrics=run.metrics)
+            view.publish(now, "behaviour_converged", run.robots, f"{run.type} {run.id} converged after "
+                         f"{now - run.started:.1f} s", id=run.id, metrics=run.metrics)
         if now - run.started - (run.history[-1]["t"] if run.history else 0.0) >= 1.0 - 1e-9:
             run.history.append({"t": now - run.started, **run.metrics})
             del run.history[:-HISTORY]
@@ -190,11 +189,11 @@ class BehaviourManager:
 
     def _keep_off_walls(self, state: SwarmState) -> np.ndarray:
         """A push away from static obstacles and the geofence, growing inside WALL_DISTANCE (m/s)."""
-        svc = self.service
-        dist, normal = svc.static_clearance().query(state.centre)
+        view = self.view
+        dist, normal = view.static_clearance().query(state.centre)
         gap = np.maximum(dist - state.radius, 0.0)
         push = -normal * (state.max_v * np.clip(1.0 - gap / WALL_DISTANCE, 0.0, 1.0))[:, None]
-        xmin, ymin, xmax, ymax = svc.safety.fence
+        xmin, ymin, xmax, ymax = view.fence
         lo = np.array([xmin, ymin]) + state.radius[:, None] + WALL_DISTANCE
         hi = np.array([xmax, ymax]) - state.radius[:, None] - WALL_DISTANCE
         inward = np.clip(lo - state.centre, 0.0, None) - np.clip(state.centre - hi, 0.0, None)

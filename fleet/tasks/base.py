@@ -15,7 +15,7 @@ from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.types import Pose2D
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 Command = tuple[float, float]
 _ids = itertools.count(1)
@@ -27,14 +27,14 @@ def new_task_id() -> str:
 
 @dataclass
 class TaskContext:
-    service: FleetService
+    view: FleetView
     now: float
 
     def pose(self, robot: str) -> Pose2D:
-        return self.service.world.robot_pose(robot)
+        return self.view.robots.pose_of(robot)
 
     def twist(self, robot: str) -> tuple[float, float]:
-        return self.service.world.robot_twist(robot)
+        return self.view.robots.twist_of(robot)
 
 
 @dataclass
@@ -57,7 +57,7 @@ class Task(ABC):
     progress: dict[str, Any] = field(default_factory=dict)
     not_before: float = -math.inf  # sim time before which the manager does not start it (a time window)
 
-    def validate(self, service: FleetService) -> None:  # noqa: B027 - an optional hook, not abstract
+    def validate(self, view: FleetView) -> None:  # noqa: B027 - an optional hook, not abstract
         """Check params when submitted, so bad input fails at once (override per type)."""
 
     def begin(self, ctx: TaskContext) -> None:  # noqa: B027 - an optional hook, not abstract
@@ -71,7 +71,7 @@ class Task(ABC):
         """Stop whatever the task drives; the manager marks it canceled."""
 
     @classmethod
-    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+    def work_profile(cls, params: dict[str, Any], view: FleetView) -> WorkProfile:
         """Where the task starts and ends and how much work it is, for the allocator (override per type)."""
         raise FleetError(ErrorCode.UNSUPPORTED, f"task type '{cls.type_name}' cannot be allocated",
                          f"allocatable types: {', '.join(allocatable_types())}; submit it to a robot instead")

@@ -13,7 +13,7 @@ from planning.nav_types import NavState
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
     from planning.navigator import Navigator
 
 
@@ -24,7 +24,7 @@ class WaitTask(Task):
 
     type_name = "wait"
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, view: FleetView) -> None:
         s = self.params.get("seconds")
         if not isinstance(s, int | float) or not (0 <= s < math.inf):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"wait needs seconds ≥ 0, got {s!r}")
@@ -55,13 +55,13 @@ class NavTask(Task):
 
     def navigator(self, ctx: TaskContext) -> Navigator:
         if self.nav is None:
-            self.nav = ctx.service.make_navigator(self.robot, self.params.get("navigation"))
+            self.nav = ctx.view.make_navigator(self.robot, self.params.get("navigation"))
         return self.nav
 
     def drive(self, ctx: TaskContext) -> tuple[Command, NavState]:
         nav = self.navigator(ctx)
         cmd = nav.tick(ctx.now, ctx.pose(self.robot), ctx.twist(self.robot),
-                       ctx.service.world.latest_scan(self.robot))
+                       ctx.view.latest_scan(self.robot))
         st = nav.status(ctx.now)
         self.progress = {"distance_remaining": st.distance_remaining, "eta_s": st.eta_s,
                          "replans": st.replans, "recoveries": st.recoveries, "nav_state": st.state.value}
@@ -82,11 +82,11 @@ class GoToTask(NavTask):
     type_name = "go_to"
     allocatable = True
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, view: FleetView) -> None:
         pose_param(self.params)
 
     @classmethod
-    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+    def work_profile(cls, params: dict[str, Any], view: FleetView) -> WorkProfile:
         g = pose_param(params)
         return WorkProfile(start=(g.x, g.y), end=(g.x, g.y))
 
@@ -112,6 +112,6 @@ class ReturnHomeTask(GoToTask):
     type_name = "return_home"
     allocatable = False  # robot-specific: its goal depends on who does it
 
-    def validate(self, service: FleetService) -> None:
-        self.params["goal"] = service.registry.get(self.robot).home
+    def validate(self, view: FleetView) -> None:
+        self.params["goal"] = view.robot_record(self.robot).home
         self.params.setdefault("align_yaw", True)

@@ -18,7 +18,7 @@ from planning.nav_types import NavState
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 DEFAULT_TARGET_SOC = 0.9
 STALL_S = 30.0  # on the dock this long without gaining charge: something is wrong, say so
@@ -36,45 +36,45 @@ class DockAndChargeTask(NavTask):
     _best_soc: float = -1.0
     _best_t: float = 0.0
 
-    def validate(self, service: FleetService) -> None:
-        check_dock(service.docks, self.params.get("dock"))
+    def validate(self, view: FleetView) -> None:
+        check_dock(view.docks, self.params.get("dock"))
         t = self.params.setdefault("target_soc", DEFAULT_TARGET_SOC)
         if not isinstance(t, int | float) or not 0 < t <= 1:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"target_soc must be in (0, 1], got {t!r}", "e.g. 0.9")
 
     def begin(self, ctx: TaskContext) -> None:
-        svc = ctx.service
+        view = ctx.view
         name = self.params.get("dock")
         if name is None:
             p = ctx.pose(self.robot)
-            taken = [t.dock for t in svc.tasks.active.values() if isinstance(t, DockAndChargeTask) and t is not self]
-            name = nearest_dock(svc.docks, p.x, p.y, taken)
+            taken = [t.dock for t in view.active_tasks().values() if isinstance(t, DockAndChargeTask) and t is not self]
+            name = nearest_dock(view.docks, p.x, p.y, taken)
         self.dock = name
-        self.navigator(ctx).set_goal(svc.docks[name], ctx.now)
+        self.navigator(ctx).set_goal(view.docks[name], ctx.now)
 
     def step(self, ctx: TaskContext) -> Command:
-        svc = ctx.service
-        soc = float(svc.battery.soc[svc.world.table.index(self.robot)])
+        view = ctx.view
+        soc = view.battery_soc(self.robot)
         target = float(self.params["target_soc"])
         if self.phase == "driving":
             cmd, state = self.drive(ctx)
-            self._report(svc, soc, target)
+            self._report(view, soc, target)
             if state is NavState.FAILED:
                 return self.fail(ctx.now, f"could not reach dock {self.dock}: {self.reason or 'navigation failed'}")
             if state is not NavState.SUCCEEDED:
                 return cmd
             self.phase, self._best_soc, self._best_t = "charging", soc, ctx.now
-            svc.events.publish(ctx.now, "docked", (self.robot,), f"{self.robot} on {self.dock}", dock=self.dock,
-                               soc=soc, task=self.id)
-        dock = svc.docks[self.dock]
-        if ctx.pose(self.robot).distance_to(dock) > svc.config.battery.dock_radius:  # pushed off: drive back
+            view.publish(ctx.now, "docked", (self.robot,), f"{self.robot} on {self.dock}", dock=self.dock,
+                         soc=soc, task=self.id)
+        dock = view.docks[self.dock]
+        if ctx.pose(self.robot).distance_to(dock) > view.battery_config.dock_radius:  # pushed off: drive back
             self.phase = "driving"
             self.navigator(ctx).set_goal(dock, ctx.now)
             return (0.0, 0.0)
-        self._report(svc, soc, target)
+        self._report(view, soc, target)
         if soc >= target - 1e-9:
-            svc.events.publish(ctx.now, "charged", (self.robot,), f"{self.robot} charged to {soc:.0%}",
-                               dock=self.dock, soc=soc, task=self.id)
+            view.publish(ctx.now, "charged", (self.robot,), f"{self.robot} charged to {soc:.0%}",
+                         dock=self.dock, soc=soc, task=self.id)
             return self.succeed(ctx.now)
         if soc > self._best_soc + 1e-6:
             self._best_soc, self._best_t = soc, ctx.now
@@ -82,8 +82,8 @@ class DockAndChargeTask(NavTask):
             return self.fail(ctx.now, f"not charging on {self.dock}: state of charge stuck at {soc:.1%}")
         return (0.0, 0.0)
 
-    def _report(self, svc: FleetService, soc: float, target: float) -> None:
-        b = svc.config.battery
+    def _report(self, view: FleetView, soc: float, target: float) -> None:
+        b = view.battery_config
         net_w = b.charge_w - b.idle_w
         eta = max(0.0, target - soc) * b.capacity_wh / net_w * 3600.0 if net_w > 0 else math.inf
         self.progress.update({"dock": self.dock, "phase": self.phase, "soc": round(soc, 4), "target_soc": target,

@@ -24,7 +24,7 @@ from planning.nav_types import CoveragePlan, NavState
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 DEFAULT_TOOL_WIDTH = 0.5  # m
 TRACE_STEP = 0.05  # m between recorded trajectory points
@@ -65,11 +65,11 @@ class CoverAreaTask(NavTask):
     _measured_at: float = -math.inf
     _coverage: float = 0.0
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, view: FleetView) -> None:
         plan_for(self.params)  # checks the polygon, tool and pattern now, so bad input fails at submit
 
     @classmethod
-    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+    def work_profile(cls, params: dict[str, Any], view: FleetView) -> WorkProfile:
         p = plan_for(params)
         path = np.asarray(shapely.LineString(p.path).simplify(0.05).coords)
         (x0, y0), (x1, y1) = p.path[0], p.path[-1]

@@ -20,7 +20,7 @@ from sim.errors import ErrorCode, FleetError
 from sim.types import Pose2D
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 MAX_FAILURES = 5  # consecutive failed legs before the task gives up
 RETRY_S = 1.0  # after a failed leg, try again this much later (the target may have moved)
@@ -39,11 +39,11 @@ class FollowRobotTask(NavTask):
     _err_sum: float = 0.0
     _samples: int = 0
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, view: FleetView) -> None:
         target = self.params.get("target")
         if not isinstance(target, str):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, "follow_robot needs 'target': a robot name")
-        service.registry.get(target)  # unknown → lists the robots
+        view.robot_record(target)  # unknown → lists the robots
         if target == self.robot:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"robot '{self.robot}' cannot follow itself")
         for key, default in (("distance", 1.0), ("regoal_distance", 0.3)):
@@ -55,11 +55,11 @@ class FollowRobotTask(NavTask):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"duration must be > 0 s or null, got {d!r}")
 
     def step(self, ctx: TaskContext) -> Command:
-        svc, target = ctx.service, str(self.params["target"])
+        target = str(self.params["target"])
         duration = self.params.get("duration")
         if duration is not None and ctx.now - self.started >= float(duration):
             return self.succeed(ctx.now)
-        if target not in svc.world.robot_names():
+        if not ctx.view.robots.has(target):
             return self.fail(ctx.now, f"target robot '{target}' is gone")
         me, tp = ctx.pose(self.robot), ctx.pose(target)
         want = self._follow_point(ctx, me, tp)

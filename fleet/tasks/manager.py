@@ -10,7 +10,7 @@ from fleet.types import TaskState
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 HISTORY = 10_000
 
@@ -18,8 +18,8 @@ HISTORY = 10_000
 class TaskManager:
     """A ControlSource: each control tick the active task of each robot decides its command."""
 
-    def __init__(self, service: FleetService) -> None:
-        self.service = service
+    def __init__(self, view: FleetView) -> None:
+        self.view = view
         self.tasks: dict[str, Task] = {}
         self.active: dict[str, Task] = {}  # robot → its running task
         self.queues: dict[str, list[Task]] = {}  # robot → waiting tasks, highest priority first
@@ -30,13 +30,13 @@ class TaskManager:
                not_before: float | None = None) -> Task:
         """Queue a task for a robot (validated now, so bad input fails at once). With `not_before` the robot
         does not start it before that sim time (it waits where it is)."""
-        self.service.registry.get(robot)
+        self.view.robot_record(robot)
         cls = task_class(type_name)
         if not_before is not None and math.isnan(not_before):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, "not_before must be a sim time, got NaN")
         task = cls(id=new_task_id(), robot=robot, params=dict(params or {}), priority=priority,
-                   created=self.service.world.time, not_before=-math.inf if not_before is None else not_before)
-        task.validate(self.service)
+                   created=self.view.time, not_before=-math.inf if not_before is None else not_before)
+        task.validate(self.view)
         self.tasks[task.id] = task
         q = self.queues.setdefault(robot, [])
         q.append(task)
@@ -61,7 +61,7 @@ class TaskManager:
     # ---- ControlSource -----------------------------------------------------------------------------------
 
     def commands(self, now: float) -> dict[str, Command]:
-        ctx = TaskContext(self.service, now)
+        ctx = TaskContext(self.view, now)
         out: dict[str, Command] = {}
         for robot in list(self.queues):
             task = self.active.get(robot)
@@ -69,7 +69,7 @@ class TaskManager:
                 task = self._activate_next(robot, ctx)
                 if task is None:
                     continue
-            if self.service.safety.is_estopped(robot):
+            if self.view.estopped(robot):
                 out[robot] = (0.0, 0.0)  # an e-stopped robot's task waits (its clock keeps running)
                 continue
             try:
@@ -111,8 +111,8 @@ class TaskManager:
         task = q.pop(0)
         task.state, task.started = TaskState.ACTIVE, ctx.now
         self.active[robot] = task
-        self.service.events.publish(ctx.now, "task_started", (robot,), f"{task.type_name} {task.id} started",
-                                    task=task.id, type=task.type_name)
+        self.view.publish(ctx.now, "task_started", (robot,), f"{task.type_name} {task.id} started",
+                          task=task.id, type=task.type_name)
         try:
             task.begin(ctx)
         except FleetError as exc:
@@ -122,7 +122,7 @@ class TaskManager:
         return task
 
     def _end(self, task: Task, state: TaskState, reason: str) -> None:
-        now = self.service.world.time
+        now = self.view.time
         if state is TaskState.CANCELED:
             task.cancel(reason)
         task.state, task.reason = state, reason
@@ -134,9 +134,8 @@ class TaskManager:
             q.remove(task)
         kind = {TaskState.SUCCEEDED: "task_finished", TaskState.FAILED: "task_failed",
                 TaskState.CANCELED: "task_canceled"}[state]
-        self.service.events.publish(now, kind, (task.robot,), f"{task.type_name} {task.id} {state.value}"
-                                    + (f": {reason}" if reason else ""), task=task.id, type=task.type_name,
-                                    reason=reason)
+        self.view.publish(now, kind, (task.robot,), f"{task.type_name} {task.id} {state.value}"
+                          + (f": {reason}" if reason else ""), task=task.id, type=task.type_name, reason=reason)
 
     def _trim(self) -> None:
         if len(self.tasks) > HISTORY:

@@ -20,7 +20,7 @@ from planning.waypoints import WaypointFollower, WaypointMode, visit_order
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
-    from fleet.service import FleetService
+    from fleet.fleet_view import FleetView
 
 MODES = ("sequence", "loop", "patrol")
 
@@ -64,12 +64,12 @@ class FollowWaypointsTask(NavTask):
     follower: WaypointFollower | None = None
     _seen: int = 0
 
-    def validate(self, service: FleetService) -> None:
+    def validate(self, view: FleetView) -> None:
         parse_waypoints(self.params)
         parse_mode(self.params)
 
     @classmethod
-    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+    def work_profile(cls, params: dict[str, Any], view: FleetView) -> WorkProfile:
         wps = parse_waypoints(params)
         mode, rounds = parse_mode(params)
         if rounds is None and mode != "sequence":
@@ -92,7 +92,7 @@ class FollowWaypointsTask(NavTask):
     def step(self, ctx: TaskContext) -> Command:
         f = self.follower
         assert f is not None
-        cmd = f.tick(ctx.now, ctx.pose(self.robot), ctx.twist(self.robot), ctx.service.world.latest_scan(self.robot))
+        cmd = f.tick(ctx.now, ctx.pose(self.robot), ctx.twist(self.robot), ctx.view.latest_scan(self.robot))
         st = f.status(ctx.now)
         self._publish_visits(ctx, st.visits, done=st.state is NavState.SUCCEEDED)
         leg = st.leg
@@ -116,7 +116,7 @@ class FollowWaypointsTask(NavTask):
         return visits[-1].round + 1 if finished else visits[-1].round
 
     def _publish_visits(self, ctx: TaskContext, visits: tuple[Any, ...], done: bool) -> None:
-        bus, mode = ctx.service.events, self.params.get("mode", "sequence")
+        bus, mode = ctx.view, self.params.get("mode", "sequence")
         for v in visits[self._seen:]:
             prev_round = visits[self._seen - 1].round if self._seen else 0
             if v.round > prev_round:  # the first visit of a new round closes the previous one

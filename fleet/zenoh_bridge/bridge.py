@@ -69,7 +69,7 @@ class ZenohBridge:
         self.streams = Streams(s, k, cfg.streams, self.ros, odom_hz=cfg.odom_hz, state_hz=cfg.state_hz)
         self.commands = Commands(svc, self.gate, k, self._report, workers=cfg.query_workers,
                                  lockstep=cfg.lockstep.enabled, ros_client=cfg.ros2.client,
-                                 on_register=lambda: self._on_snapshot(svc.snapshot))
+                                 on_register=lambda: self._on_snapshot(svc.snapshot), budget=cfg.query_budget_s)
         self._clock = s.declare_publisher(k.fleet("clock"), encoding=zenoh.Encoding.APPLICATION_JSON,
                                           congestion_control=zenoh.CongestionControl.BLOCK)
         self._decls += [

@@ -3,7 +3,9 @@
 A velocity command that is rejected (lease held, e-stopped, malformed) has no reply to carry the error, so the
 error goes to `agent/<id>/errors` (and `fleet/errors`) and the log. Queries reply with the same result or the
 same FleetError code, message and hint the MCP tools return. Every service call runs on the sim thread via
-the gate; Zenoh's own threads only decode and hand over, queries wait on a small worker pool.
+the gate; Zenoh's own threads only decode and hand over. Queries are decoded and checked (names first) on a
+small worker pool, which never waits on the sim thread: the sim work's completion hands the encoding back to
+the pool, and a query the world has not answered within `budget` s gets a TIMEOUT error (see replies.py).
 """
 
 from __future__ import annotations
@@ -18,7 +20,6 @@ from typing import TYPE_CHECKING, Any
 
 import zenoh
 
-from fleet.core import CALL_TIMEOUT_S
 from fleet.zenoh_api import (
     COMMANDS,
     CameraReq,
@@ -39,14 +40,14 @@ from fleet.zenoh_api import (
     TasksReq,
     check_name,
     decode,
-    encode_error,
     encode_fleet_state,
     encode_image,
     encode_map,
     encode_result,
 )
 from fleet.zenoh_bridge.gate import Gate
-from sim.errors import ErrorCode, FleetError
+from fleet.zenoh_bridge.replies import Deadlines, Later, Reply, overdue
+from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.types import Pose2D
 
 if TYPE_CHECKING:
@@ -66,6 +67,7 @@ class CommandStats:
     lost: int = 0  # gaps in agents' `seq` numbers: commands sent that never arrived
     queries: int = 0
     query_errors: int = 0
+    query_timeouts: int = 0  # answered TIMEOUT: the world did not answer within the query budget
     last_seq: dict[tuple[str, str], int] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, int]:
@@ -74,16 +76,19 @@ class CommandStats:
 
 class Commands:
     def __init__(self, service: FleetService, gate: Gate, keys: Keys, report: Report, *, workers: int,
-                 lockstep: bool, ros_client: str, on_register: Callable[[], None]) -> None:
+                 lockstep: bool, ros_client: str, on_register: Callable[[], None], budget: float = 5.0) -> None:
         self.service, self.gate, self.keys, self.report = service, gate, keys, report
         self.on_register = on_register  # publishes the current state, so the first tick has a pose to act on
         self.lockstep, self.ros_client = lockstep, ros_client
         self.stats = CommandStats()
         self._lock = threading.Lock()
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="fleetnav-zenoh-query")
+        self.budget = budget  # wall seconds from receipt to answer, TIMEOUT after
+        self.deadlines = Deadlines()
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+        self.deadlines.close()
 
     def malformed(self) -> None:
         with self._lock:
@@ -151,27 +156,63 @@ class Commands:
 
         self.gate.run(apply).add_done_callback(done)
 
-    # ---- queries (worker pool: they wait for the sim thread) ----------------------------------------------------
+    # ---- queries (worker pool: decode, check, hand over; answered once, never waiting on the sim thread) -------
 
     def on_query(self, query: zenoh.Query) -> None:
-        self.pool.submit(self._serve, query)
+        self.pool.submit(self._serve, query, time.monotonic())
 
-    def _serve(self, query: zenoh.Query) -> None:
+    def _serve(self, query: zenoh.Query, received: float) -> None:
         key = str(query.key_expr)
         self.stats.queries += 1
+        reply = Reply(query, key, lambda: self.service.snapshot.time)
         try:
-            query.reply(key, self._answer(key, query), encoding=JSON)
-        except FleetError as exc:
-            self.stats.query_errors += 1
-            log.info("query %s: %s", key, exc)
-            query.reply_err(encode_error(exc, self.service.snapshot.time, key=key), encoding=JSON)
-        except Exception as exc:  # a bug, not the caller's fault: reported as INTERNAL and logged with its trace
-            self.stats.query_errors += 1
-            log.exception("query %s failed", key)
-            err = FleetError(ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc}", "report this as a fleetnav bug")
-            query.reply_err(encode_error(err, self.service.snapshot.time, key=key), encoding=JSON)
+            out = self._answer(key, query)
+        except Exception as exc:
+            self._fail(reply, exc)
+            return
+        if isinstance(out, bytes):
+            reply.ok(out)
+            return
+        reply.future = out.future
+        self.deadlines.at(received + self.budget, lambda: self._expire(reply))
+        out.future.add_done_callback(lambda f: self._hand_back(reply, f, out.encode))
 
-    def _answer(self, key: str, query: zenoh.Query) -> bytes:
+    def _hand_back(self, reply: Reply, fut: Future[Any], encode: Callable[[Any], bytes]) -> None:
+        """Sim thread (or whoever completed the future): encoding and sending are the pool's work."""
+        if not reply.done and not fut.cancelled():
+            try:
+                self.pool.submit(self._complete, reply, fut, encode)
+            except RuntimeError:  # the pool is shut down: the bridge is closing
+                reply.error(FleetError(ErrorCode.BUSY, "the Zenoh bridge is closing", "connect again later"))
+
+    def _complete(self, reply: Reply, fut: Future[Any], encode: Callable[[Any], bytes]) -> None:
+        try:
+            reply.ok(encode(fut.result()))
+        except Exception as exc:
+            self._fail(reply, exc)
+
+    def _expire(self, reply: Reply) -> None:
+        """Deadline thread: the world has not answered within the budget. Still queued: it never runs."""
+        fut = reply.future
+        if reply.done or fut is None:
+            return
+        err = overdue(self.budget, fut.cancel(), self.service.health.command)
+        if reply.error(err):
+            self.stats.query_errors += 1
+            self.stats.query_timeouts += 1
+            log.warning("query %s: %s", reply.key, err.message)
+
+    def _fail(self, reply: Reply, exc: BaseException) -> None:
+        if isinstance(exc, FleetError):
+            err = exc
+            log.info("query %s: %s", reply.key, exc)
+        else:  # a bug, not the caller's fault: reported as INTERNAL and logged with its trace
+            log.error("query %s failed", reply.key, exc_info=exc)
+            err = FleetError(ErrorCode.INTERNAL, f"{type(exc).__name__}: {exc}", "report this as a fleetnav bug")
+        if reply.error(err):
+            self.stats.query_errors += 1
+
+    def _answer(self, key: str, query: zenoh.Query) -> bytes | Later:
         if any(c in key for c in "*$"):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"query '{key}' has wildcards", "query one concrete key")
         payload = query.payload.to_bytes() if query.payload is not None else None
@@ -180,11 +221,11 @@ class Commands:
             snap = svc.snapshot
             return encode_fleet_state(snap, self.gate.tick_of(snap.step_count))
         if key == k.fleet("map"):
-            grid = self._on_sim(svc.static_grid)
-            return encode_map(svc.snapshot.time, grid.data, grid.resolution, grid.origin)
+            return Later(self.gate.run(svc.static_grid), lambda grid: encode_map(svc.snapshot.time, grid.data,
+                                                                                 grid.resolution, grid.origin))
         if key == k.fleet("tasks"):
             tq = decode(TasksReq, payload, key)
-            return encode_result(svc.snapshot.time, self._on_sim(lambda: svc.list_tasks(tq.robot, tq.include_done)))
+            return self._on_sim(lambda: svc.list_tasks(tq.robot, tq.include_done))
         if key.startswith(k.command("")):
             op = Keys.last(key)
             if op not in COMMANDS:
@@ -193,18 +234,24 @@ class Commands:
             req = decode(schema, payload, key)
             if hasattr(req, "agent"):
                 check_name("agent id", req.agent)
-            result = self._on_sim(lambda: fn(req), in_gate=op != "reset")
-            return encode_result(svc.snapshot.time, result)
+            return self._on_sim(lambda: fn(req), in_gate=op != "reset")
         if key.startswith(f"{k.base}/robot/") and key.endswith("/camera"):
-            robot, which = k.robot_of(key), decode(CameraReq, payload, key).which
-            img = self._on_sim(lambda: svc.render_camera(robot, which))
-            pixels = img.rgb if which == "rgb" else img.depth
-            assert pixels is not None
-            return encode_image(img.stamp, pixels, "rgb8" if which == "rgb" else "32FC1", img.fov_deg)
+            robot = self._known_robot(k.robot_of(key))  # before any work: a render is the costliest query
+            which = decode(CameraReq, payload, key).which
+            return Later(self.gate.run(lambda: svc.render_camera(robot, which)), lambda img: _image(img, which))
         raise FleetError(ErrorCode.NOT_FOUND, f"nothing answers '{key}'", "see docs/zenoh-api.md for the keys")
 
-    def _on_sim(self, fn: Callable[[], Any], *, in_gate: bool = True) -> Any:
-        return self.gate.run(fn, in_gate=in_gate).result(timeout=CALL_TIMEOUT_S)
+    def _known_robot(self, robot: str) -> str:
+        """A robot of the latest snapshot (spawns publish one at once), checked without the sim thread."""
+        check_name("robot", robot)
+        names = self.service.snapshot.names
+        if robot not in names:
+            raise unknown_name("robot", robot, list(names), ErrorCode.UNKNOWN_ROBOT)
+        return robot
+
+    def _on_sim(self, fn: Callable[[], Any], *, in_gate: bool = True) -> Later:
+        svc = self.service
+        return Later(self.gate.run(fn, in_gate=in_gate), lambda result: encode_result(svc.snapshot.time, result))
 
     def _commands(self) -> dict[str, tuple[type[Msg], Callable[[Any], Any]]]:
         svc = self.service
@@ -268,3 +315,9 @@ class Commands:
         snap = self.service.snapshot
         return {"agent": r.agent, "robots": r.robots, "tick": self.gate.tick_of(snap.step_count),
                 "control_period": 1.0 / self.service.config.control_hz, "timeout_s": self.gate.timeout_s}
+
+
+def _image(img: Any, which: str) -> bytes:
+    pixels = img.rgb if which == "rgb" else img.depth
+    assert pixels is not None
+    return encode_image(img.stamp, pixels, "rgb8" if which == "rgb" else "32FC1", img.fov_deg)

@@ -3,7 +3,7 @@ swarm behaviours with their metrics, multi-robot avoidance, deadlocks, the robot
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from mcp.server.mcpserver import Context
 from pydantic import BaseModel, Field, WithJsonSchema
@@ -11,6 +11,7 @@ from pydantic import BaseModel, Field, WithJsonSchema
 from fleet.avoidance import avoidance_configs
 from fleet.deadlock import DeadlockConfig
 from fleet.swarm import behaviour_configs
+from fleet.task_params import allocatable_union
 from mcp_server.app import app_of, client_of, run
 from mcp_server.plugin_params import checked, settings_schema
 from mcp_server.registry import ToolRegistrar
@@ -33,13 +34,12 @@ class PoseXY(BaseModel):
         return Pose2D(self.x, self.y, self.yaw)
 
 
-class TaskSpecIn(BaseModel):
-    type: str = Field(description="an allocatable task type, e.g. go_to, follow_waypoints, cover_area")
-    params: dict[str, Any] = Field(default_factory=dict, description="e.g. {goal: {x, y, yaw}}")
-    priority: int = Field(0, description="higher goes first when robots are scarce")
-    earliest_start: float | None = Field(None, description="sim time (s) before which the task may not start")
-    deadline: float | None = Field(None, description="sim time (s) by which the task should be done")
-    id: str | None = Field(None, description="your id for the task (default: one is assigned)")
+# A task spec per allocatable type ({type, params, priority, ...}), told apart by `type`: the schema lists each
+# type's params (fleet/task_params.py), and the service validates the same models for every door.
+if TYPE_CHECKING:
+    TaskSpec = BaseModel
+else:
+    TaskSpec = allocatable_union()
 
 
 class Result(Answer):
@@ -112,16 +112,19 @@ def register(tool: ToolRegistrar) -> None:
         return Result(sim_time=app.service.sim_time, result=out)
 
     @tool(read_only=False, title="Queue a task")
-    async def queue_task(ctx: Context, spec: TaskSpecIn) -> Result:
+    async def queue_task(ctx: Context, spec: TaskSpec = Field(description="the task: its type and that type's "
+                         "params")) -> Result:
         """Queue a task for no robot in particular; assign_tasks hands the queue out."""
         svc = app_of(ctx).service
-        out = await run(ctx, svc.queue_task, spec.type, spec.params, priority=spec.priority,
-                        earliest_start=spec.earliest_start, deadline=spec.deadline, id=spec.id)
+        d = spec.model_dump(exclude_unset=True)
+        out = await run(ctx, svc.queue_task, d["type"], d["params"], priority=d.get("priority", 0),
+                        earliest_start=d.get("earliest_start"), deadline=d.get("deadline"), id=d.get("id"))
         return Result(sim_time=svc.sim_time, result=out)
 
     @tool(read_only=False, title="Assign tasks")
-    async def assign_tasks(ctx: Context, tasks: list[TaskSpecIn] | None = Field(None, description="omitted: the "
-                           "queue"), robots: list[str] | None = Field(None, description="omitted: every idle robot"),
+    async def assign_tasks(ctx: Context, tasks: list[TaskSpec] | None = Field(None, max_length=200, description=
+                           "omitted: the queue"),
+                           robots: list[str] | None = Field(None, description="omitted: every idle robot"),
                            method: Literal["hungarian", "greedy", "auction"] = "hungarian",
                            dry_run: bool = Field(False, description="plan only: nothing is submitted"),
                            cost: Literal["path", "euclidean"] = "path",
@@ -129,7 +132,7 @@ def register(tool: ToolRegistrar) -> None:
         """Allocate tasks to robots: who does what in which order, ETAs, travel, charge stops and tasks that
         cannot be placed (with why). Unless dry_run, the tasks are submitted (task ids in each assignment)."""
         app = app_of(ctx)
-        specs = None if tasks is None else [t.model_dump(exclude_none=True) for t in tasks]
+        specs = None if tasks is None else [t.model_dump(exclude_unset=True) for t in tasks]
         alloc = await run(ctx, app.service.assign_tasks, specs, robots, method, dry_run, client=client_of(ctx),
                           cost=cost)
         d = alloc.to_dict()

@@ -1,4 +1,5 @@
-"""2D lidar: every due robot's beams go into one batched ray cast (split ≤ 16,000 rays per call)."""
+"""2D lidar: every due robot's beams go into one batched ray cast (split ≤ 16,000 rays per call); ranges,
+noise and validity are computed over all rays at once."""
 
 from __future__ import annotations
 
@@ -29,12 +30,22 @@ class LidarConfig:
 
     @staticmethod
     def from_spec(spec: RobotSpec) -> LidarConfig:
+        """The one config object of these values: robots with equal lidars share it, so a step's rays are
+        grouped by object identity without comparing values robot by robot."""
         ls = spec.sensors.lidar
-        inc = math.radians(ls.fov_deg) / ls.beams
-        amin = -math.pi if ls.fov_deg >= 360 else -math.radians(ls.fov_deg) / 2
-        angles = amin + inc * np.arange(ls.beams)
-        return LidarConfig(angles, amin, inc, ls.range_min, ls.range_max, spec.lidar_height,
-                           spec.mast.x_offset)
+        key = (ls.beams, float(ls.fov_deg), float(ls.range_min), float(ls.range_max), float(spec.lidar_height),
+               float(spec.mast.x_offset))
+        if key not in _SHARED:
+            inc = math.radians(ls.fov_deg) / ls.beams
+            amin = -math.pi if ls.fov_deg >= 360 else -math.radians(ls.fov_deg) / 2
+            angles = amin + inc * np.arange(ls.beams)
+            angles.setflags(write=False)
+            _SHARED[key] = LidarConfig(angles, amin, inc, ls.range_min, ls.range_max, spec.lidar_height,
+                                       spec.mast.x_offset)
+        return _SHARED[key]
+
+
+_SHARED: dict[tuple[float, ...], LidarConfig] = {}
 
 
 def cast_scans(table: RobotTable, rows: np.ndarray, configs: list[LidarConfig], cast: RayCaster,
@@ -45,39 +56,46 @@ def cast_scans(table: RobotTable, rows: np.ndarray, configs: list[LidarConfig], 
     rows = np.asarray(rows, dtype=np.int64)
     if rows.size == 0:
         return []
-    groups: dict[tuple[float, ...], list[int]] = {}
-    for k, i in enumerate(rows.tolist()):
-        c = configs[i]
-        groups.setdefault((c.angles.size, c.angle_min, c.angle_increment, c.range_min, c.range_max, c.height,
-                           c.x_offset), []).append(k)
-    origins, ends = [], []
+    cfgs = [configs[i] for i in rows.tolist()]
+    _, which = np.unique(np.array([id(c) for c in cfgs], dtype=np.int64), return_inverse=True)
+    groups = [np.flatnonzero(which.ravel() == g) for g in range(int(which.max()) + 1)]
+    n_rays = sum(int(configs[int(rows[ks[0]])].angles.size) * ks.size for ks in groups)
+    origins, ends = np.empty((n_rays, 3)), np.empty((n_rays, 3))
     spans = np.zeros((rows.size, 2), dtype=np.int64)
     start = 0
-    for ks in groups.values():
+    for ks in groups:
         idx = rows[ks]
         cfg = configs[int(idx[0])]
-        yaw = f["yaw"][idx]
-        ox, oy = f["x"][idx] + cfg.x_offset * np.cos(yaw), f["y"][idx] + cfg.x_offset * np.sin(yaw)
-        wa = yaw[:, None] + cfg.angles[None, :]
-        dirs = np.stack([np.cos(wa), np.sin(wa), np.zeros_like(wa)], axis=-1)  # (robots, beams, 3)
-        base = np.stack([ox, oy, np.full(idx.size, cfg.height)], axis=-1)[:, None, :]
-        # Rays start at range_min: a real lidar cannot see closer, and it keeps rays out of its own housing.
-        origins.append((base + dirs * cfg.range_min).reshape(-1, 3))
-        ends.append((base + dirs * cfg.range_max).reshape(-1, 3))
         nb = cfg.angles.size
+        yaw = f["yaw"][idx]
+        cy, sy = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        ca, sa = np.cos(cfg.angles)[None, :], np.sin(cfg.angles)[None, :]
+        dx, dy = cy * ca - sy * sa, sy * ca + cy * sa  # (robots, beams): cos and sin of yaw + beam angle
+        ox, oy = f["x"][idx][:, None] + cfg.x_offset * cy, f["y"][idx][:, None] + cfg.x_offset * sy
+        block = slice(start, start + nb * idx.size)
+        # Rays start at range_min: a real lidar cannot see closer, and it keeps rays out of its own housing.
+        for out, r in ((origins, cfg.range_min), (ends, cfg.range_max)):
+            out[block, 0] = (ox + r * dx).ravel()
+            out[block, 1] = (oy + r * dy).ravel()
+            out[block, 2] = cfg.height
         spans[ks, 0] = start + nb * np.arange(idx.size)
         spans[ks, 1] = spans[ks, 0] + nb
         start += nb * idx.size
-    fractions, uids = cast(np.concatenate(origins), np.concatenate(ends))
-    scans = []
-    for (a, b), i in zip(spans.tolist(), rows.tolist(), strict=True):
-        cfg = configs[i]
-        hit = uids[a:b] >= 0
-        ranges = cfg.range_min + fractions[a:b] * (cfg.range_max - cfg.range_min)
-        sigma = f["lidar_noise_std"][i] * f["lidar_noise_scale"][i]
-        if sigma > 0:
-            ranges = ranges + rng.normal(0.0, sigma, ranges.size)
-        ranges = np.where(hit & (ranges >= cfg.range_min) & (ranges <= cfg.range_max), ranges, np.inf)
-        scans.append(LidarScan(table.names[i], stamp, cfg.angle_min, cfg.angle_increment, cfg.range_min,
-                               cfg.range_max, ranges, uids[a:b].copy()))
-    return scans
+    fractions, uids = cast(origins, ends)
+    # Ranges, noise and validity for every ray at once; only the scan objects are per robot.
+    beams = spans[:, 1] - spans[:, 0]
+    by_start = np.argsort(spans[:, 0], kind="stable")  # the robots' ray blocks in ray order
+    ray_k = np.repeat(by_start, beams[by_start])
+    rmin = np.array([c.range_min for c in cfgs])[ray_k]
+    rmax = np.array([c.range_max for c in cfgs])[ray_k]
+    ranges = rmin + fractions * (rmax - rmin)
+    sigma = f["lidar_noise_std"][rows] * f["lidar_noise_scale"][rows]
+    noisy = np.flatnonzero(sigma > 0)
+    if noisy.size:  # one draw over the noisy robots' rays in row order: the stream one draw per robot gives
+        counts = beams[noisy]
+        at = np.repeat(spans[noisy, 0] - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+        ranges[at] += np.repeat(sigma[noisy], counts) * rng.standard_normal(at.size)
+    ranges = np.where((uids >= 0) & (ranges >= rmin) & (ranges <= rmax), ranges, np.inf)
+    return [LidarScan(table.names[i], stamp, c.angle_min, c.angle_increment, c.range_min, c.range_max,
+                      ranges[a:b], uids[a:b])
+            for (a, b), i, c in zip(spans.tolist(), rows.tolist(), cfgs, strict=True)]

@@ -1,7 +1,8 @@
 """A Hypothesis state machine over the Zenoh API (a real Zenoh client session on loopback, scouting off, against a
 served world): hostile values (NaN, ±inf, 1e308, huge numbers and payloads, deep nesting, `../`, absolute
 paths, `file://`, wrong types, unicode, not-JSON bytes, odd keys) in queries and velocity commands, interleaved
-with normal calls. After every step the sim thread is alive with no failed command, sim time advances, and every
+with normal calls. After every step the sim thread is alive with no failed command, sim time advances, every
+query is answered within ANSWER_S (a world too slow to answer says TIMEOUT within its query budget), and every
 error reply (and every error report on `fleet/errors`) is a structured FleetError code (never INTERNAL).
 
 Bounded for CI: derandomized, a fixed number of examples and steps. The counts are printed (`-s`) and recorded in
@@ -54,8 +55,8 @@ OPS: dict[str, tuple[list[str], dict[str, Any]]] = {
 }
 STATS: Counter[str] = Counter()
 FAILURES: list[str] = []
-SLOW: list[str] = []  # calls answered after > 5 s, or not within ANSWER_S (Zenoh's own "Timeout" reply)
-ANSWER_S = 10.0
+SLOW: list[str] = []  # calls answered after > 5 s
+ANSWER_S = 10.0  # the caller's patience; the bridge's query budget (5 s) is below it
 
 
 class Link:
@@ -136,10 +137,12 @@ class HostileZenoh(RuleBasedStateMachine):
             FAILURES.append(f"{key} ← {(payload or b'')[:80]!r}: no reply")
         assert replies, f"{key}: no reply"
         for is_err, msg in replies:
-            if is_err and msg == "Timeout":  # no answer from the world in ANSWER_S: recorded, see docs/limits.md
+            if is_err and msg == "Timeout":  # Zenoh's own: nobody answered (or finalized the query) in ANSWER_S
                 STATS["unanswered"] += 1
-                SLOW.append(f"{key} ← {(payload or b'')[:80]!r}: no answer in {ANSWER_S:g} s")
-                continue
+                FAILURES.append(f"{key} ← {(payload or b'')[:80]!r}: no answer in {ANSWER_S:g} s")
+            assert not (is_err and msg == "Timeout"), f"{key} ← {(payload or b'')[:80]!r}: unanswered"
+            if is_err and isinstance(msg, dict) and msg.get("code") == "TIMEOUT":
+                STATS["timeouts"] += 1
             if is_err:
                 STATS["errors"] += 1
                 if not (isinstance(msg, dict) and msg.get("code") in CODES and msg.get("message")):

@@ -97,9 +97,10 @@ def test_slower_lidar_keeps_its_period_when_spread() -> None:
 
 
 def test_culling_robots_out_of_reach_changes_no_scan(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Each step casts a few lidars and Embree builds only the robots their rays can reach: the scans are the
-    ones the whole fleet's scene gives (culling off), neighbours included."""
-    import sim.raycast_embree as re
+    """Each step casts a few lidars and the closed-form robot pass tests each ray only against the robots it
+    can reach (sim/raycast_robots.py _pairs): the scans are the ones testing every ray against every robot
+    gives, neighbours included; and no Embree scene is built for the robots."""
+    import sim.raycast_robots as rr
 
     def run() -> list[LidarScan]:
         w = World(physics_hz=100, seed=2)
@@ -112,13 +113,14 @@ def test_culling_robots_out_of_reach_changes_no_scan(monkeypatch: pytest.MonkeyP
         w.subscribe(lambda s: scans.append(s) if isinstance(s, LidarScan) else None, kinds=("scan",))
         with w:
             w.run_for(0.5)
-            o = np.array([[0.0, 0.0, 0.2]])  # one ray from the first cluster: only its six robots are built
-            built = w.rays.embree._dynamic_scene((0.1, 0.3), w.rays.embree._reach(o, np.array([[10.0, 0.0, 0.0]])))
-            assert len({int(u) for g in built for u in g.uid}) == (12 if re.MAX_REACH_TESTS == 0 else 6)
+            assert w.rays.embree._dynamic_scene((0.1, 0.7)) == []
         return scans
 
     culled = run()
-    monkeypatch.setattr(re, "MAX_REACH_TESTS", 0)  # every robot in every scene
+    def every_pair(rg: rr.RayGroups, xy: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.repeat(np.arange(len(rg.order)), len(xy)), np.tile(np.arange(len(xy)), len(rg.order))
+
+    monkeypatch.setattr(rr, "_pairs", every_pair)  # every ray against every robot
     whole = run()
     assert [(s.robot, s.stamp) for s in culled] == [(s.robot, s.stamp) for s in whole] and len(culled) == 60
     robot_hits = 0

@@ -43,6 +43,12 @@ class FrontEndConfig(StrictModel):
     icp_range_sigma: float = Field(0.05, gt=0, description="per-point σ behind the edge information, m")
     sigma_floor_xy: float = Field(0.01, gt=0, description="scan-matching edge σ never below this, m")
     sigma_floor_yaw: float = Field(0.003, gt=0, description="rad")
+    sigma_floor_length: float | None = Field(1.0, gt=0, description="the floors hold for a step that covers "
+                                             "this much ground; a step's floor variance scales with the ground "
+                                             "it covered (None: the same floor for every step), m")
+    sigma_floor_m_per_rad: float = Field(0.5, ge=0, description="a turn covers this much ground per rad, m")
+    sigma_floor_min_share: float = Field(0.05, gt=0, le=1, description="… but never below this share of the "
+                                         "floor variance")
     odom_sigma_xy: float = Field(0.2, gt=0, description="σ of an edge from odometry alone (match failed), m")
     odom_sigma_yaw: float = Field(0.1, gt=0, description="rad")
 
@@ -75,6 +81,9 @@ class LoopConfig(StrictModel):
     sigma_floor_yaw: float = Field(0.01, gt=0, description="rad")
     kernel: Literal["huber", "cauchy", "none"] = "huber"
     kernel_width: float = Field(1.0, gt=0, description="in σ units")
+    strong_kernel_beyond: float | None = Field(0.3, gt=0, description="a closure that disagrees with the "
+                                               "current estimate by more than this gets a Cauchy kernel "
+                                               "(None: always `kernel`), m")
     residual_chi2: float = Field(16.27, gt=0, description="remove a closure still this inconsistent (χ², "
                                  "3 dof) after optimising")
 

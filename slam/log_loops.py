@@ -23,6 +23,7 @@ from slam.csm import MatchGrid, search
 from slam.icp import IcpTarget, icp
 from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
+from slam.pose_graph import Kernel
 
 if TYPE_CHECKING:
     from slam.log_slam import LogSlam
@@ -150,7 +151,8 @@ class LoopFinder:
             inliers: float = 1.0, rmse: float = 0.0) -> Closure:
         """Add a closure with the robust kernel, optimise, and remove it again if it stays inconsistent."""
         g = self.slam.graph
-        k = g.add_between(target, source, relative, covariance, self.config.kernel, self.config.kernel_width)
+        k = g.add_between(target, source, relative, covariance, self.kernel_for(target, source, relative),
+                          self.config.kernel_width)
         g.converge(max_steps=20)
         chi2 = g.chi2(k)
         if chi2 > self.config.residual_chi2:
@@ -163,6 +165,18 @@ class LoopFinder:
         self.slam.edges.append((target, source, relative, covariance))
         self._last_closure_path = self.slam.path[source]
         return self._record(Closure(source, target, relative, score, inliers, rmse, True, "accepted"))
+
+    def kernel_for(self, target: int, source: int, relative: se2.PoseTuple) -> Kernel:
+        """The configured kernel, or Cauchy for a closure that moves the estimate by more than
+        `strong_kernel_beyond`: most closures only tidy up centimetres and Huber lets them, while a large
+        correction is either a real loop (the rest of the graph then agrees and Cauchy barely matters) or a
+        wrong match that only its own factor supports (Cauchy's weight falls off as 1/r², Huber's as 1/r)."""
+        c = self.config
+        if c.strong_kernel_beyond is None:
+            return c.kernel
+        now = se2_between(self.slam.poses[target], self.slam.poses[source])
+        off = math.hypot(now[0] - relative[0], now[1] - relative[1])
+        return "cauchy" if off > c.strong_kernel_beyond else c.kernel
 
     def _record(self, closure: Closure) -> Closure:
         self.history.append(closure)

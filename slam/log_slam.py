@@ -189,7 +189,16 @@ class LogSlam:
             fused = np.linalg.solve(info + odo_info, info @ d)
             pose = se2_compose(guess, (float(fused[0]), float(fused[1]), float(fused[2])))
             info = info + odo_info
-        return pose, np.linalg.inv(info) + self._edge_floor
+        return pose, np.linalg.inv(info) + self._floor(se2_between(self.poses[-1], pose))
+
+    def _floor(self, rel: se2.PoseTuple) -> np.ndarray:
+        """The edge's σ floor, as a variance that grows with the ground the step covered: scan-to-map drift
+        comes from new map content, so it adds up per metre (and per radian turned), not per scan."""
+        fe = self.config.frontend
+        if fe.sigma_floor_length is None:
+            return self._edge_floor
+        covered = math.hypot(rel[0], rel[1]) + fe.sigma_floor_m_per_rad * abs(rel[2])
+        return self._edge_floor * max(covered / fe.sigma_floor_length, fe.sigma_floor_min_share)
 
     def _step_cov(self, delta: se2.PoseTuple) -> np.ndarray:
         """Odometry σ of one step: a floor plus a share of the motion (the odometry's trust)."""

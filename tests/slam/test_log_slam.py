@@ -107,3 +107,29 @@ def test_mcap_log_without_odometry(tmp_path: Path) -> None:
     ref = np.array([p.as_tuple() for p in truth])
     assert float(evaluate(est, ref)["ate_rmse"]) < 0.05  # type: ignore[arg-type]
     assert slam.stats.wide == len(truth) - 1 and slam.stats.odometry_only == 0
+
+
+def test_only_a_closure_far_from_the_estimate_gets_the_strong_kernel(
+        run: tuple[LogSlam, np.ndarray, np.ndarray, Path]) -> None:
+    slam, _, _, _ = run
+    loops = slam.loops
+    assert loops.config.strong_kernel_beyond == 0.3 and loops.config.kernel == "huber"
+    x0, y0, t0 = slam.poses[20]
+    x1, y1, t1 = slam.poses[120]
+    c, s = math.cos(t0), math.sin(t0)
+    now = (c * (x1 - x0) + s * (y1 - y0), -s * (x1 - x0) + c * (y1 - y0), t1 - t0)  # 120 in 20's frame
+    assert loops.kernel_for(20, 120, now) == "huber"
+    assert loops.kernel_for(20, 120, (now[0] + 0.2, now[1] - 0.2, now[2])) == "huber"  # 0.28 m off
+    assert loops.kernel_for(20, 120, (now[0] + 0.25, now[1] - 0.25, now[2])) == "cauchy"  # 0.35 m off
+
+
+def test_front_end_edge_floor_grows_with_the_ground_covered() -> None:
+    fe = LogSlamConfig().frontend
+    assert fe.sigma_floor_length == 1.0 and fe.sigma_floor_m_per_rad == 0.5
+    slam = LogSlam()
+    unit = np.diag([fe.sigma_floor_xy**2, fe.sigma_floor_xy**2, fe.sigma_floor_yaw**2])
+    np.testing.assert_allclose(slam._floor((0.3, 0.4, 0.0)), 0.5 * unit)  # 0.5 m straight
+    np.testing.assert_allclose(slam._floor((1.2, -1.6, 0.0)), 2.0 * unit)  # 2 m
+    np.testing.assert_allclose(slam._floor((0.0, 0.0, -1.0)), 0.5 * unit)  # 1 rad turned on the spot
+    np.testing.assert_allclose(slam._floor((0.6, 0.0, 0.8)), 1.0 * unit)  # 0.6 m + 0.8 rad
+    np.testing.assert_allclose(slam._floor((0.001, 0.0, 0.0)), fe.sigma_floor_min_share * unit)  # standing

@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
-from sim import world_sensors
-from sim.drive import integrate_unicycle, limit_twist, wheel_speeds
+from sim import world_motion, world_sensors
+from sim.drive import limit_twist
 from sim.errors import ErrorCode, FleetError, unknown_name
-from sim.kinematic_collisions import RawContact, resolve_kinematic_collisions
+from sim.kinematic_collisions import RawContact
 from sim.models import ModelRegistry
 from sim.ray_backends import RayBackends, cast_pybullet
 from sim.robot_body import RobotBody
@@ -28,7 +28,6 @@ from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading
 from sim.world_types import CommandResult, ModelState, SensorFault
 
 LIDAR_PHASES = ("spread", "aligned")
-MAX_SPEED = 50.0  # m/s: any body faster than this is a physics explosion, not motion
 Reading = LidarScan | ImuReading | OdometryReading | ContactReading
 
 
@@ -218,19 +217,7 @@ class World:
         return np.flatnonzero(~self.table.b["kinematic"])
 
     def _drive_dynamic_robots(self) -> None:
-        rows = self._dynamic_rows()
-        if rows.size == 0:
-            return
-        f = self.table.f
-        wl, wr = wheel_speeds(f["sp_v"][rows], f["sp_w"][rows], f["wheel_radius"][rows], f["wheel_sep"][rows])
-        for i, left, right in zip(rows.tolist(), wl.tolist(), wr.tolist(), strict=True):
-            name = self.table.names[i]
-            body = self.bodies[name]
-            torque = self.specs[name].wheels.max_torque
-            joints, n_left = [*body.drive_left, *body.drive_right], len(body.drive_left)
-            p.setJointMotorControlArray(body.uid, joints, p.VELOCITY_CONTROL,
-                                        targetVelocities=[left] * n_left + [right] * (len(joints) - n_left),
-                                        forces=[torque] * len(joints), physicsClientId=self.client)
+        world_motion.drive_dynamic_robots(self)  # wheel motor targets from the limited twist
 
     def _step_physics(self) -> None:
         if self.table.b["kinematic"].all() and not self.models.has_dynamic_models():
@@ -238,26 +225,7 @@ class World:
         p.stepSimulation(physicsClientId=self.client)
 
     def _move_kinematic_robots(self) -> None:
-        f, kin = self.table.f, self.table.b["kinematic"]
-        rows = np.flatnonzero(kin)
-        if rows.size == 0:
-            return
-        x0, y0, th0 = f["x"][rows], f["y"][rows], f["yaw"][rows]
-        v, w = f["sp_v"][rows], f["sp_w"][rows]
-        f["v"][rows], f["w"][rows] = v, w
-        moving = (np.abs(v) > 0) | (np.abs(w) > 0)
-        nx, ny, nth = integrate_unicycle(x0, y0, th0, v, w, self.dt)
-        f["x"][rows], f["y"][rows], f["yaw"][rows] = nx, ny, nth
-        blocked = resolve_kinematic_collisions(self, rows[moving], (x0[moving], y0[moving], th0[moving]))
-        # True wheel rotation of the motion actually made (blocked robots did not move).
-        ds = np.hypot(f["x"][rows] - x0, f["y"][rows] - y0) * np.sign(v)
-        dth = (f["yaw"][rows] - th0 + np.pi) % (2 * np.pi) - np.pi
-        sep, r = f["wheel_sep"][rows], f["wheel_radius"][rows]
-        f["wheel_l"][rows] += (ds - dth * sep / 2) / r
-        f["wheel_r"][rows] += (ds + dth * sep / 2) / r
-        if blocked.size:  # a blocked robot stops: its drive starts again from rest
-            for col in ("v", "w", "sp_v", "sp_w"):
-                f[col][blocked] = 0.0
+        world_motion.move_kinematic_robots(self)  # unicycle integration, collisions resolved
 
     def _read_dynamic_robots(self) -> None:
         from sim.robot_spawn import read_dynamic_states
@@ -273,15 +241,7 @@ class World:
         world_sensors.collect_dynamic_contacts(self)
 
     def _check_physics_health(self) -> None:
-        f = self.table.f
-        bad = ~(np.isfinite(f["x"]) & np.isfinite(f["y"]) & np.isfinite(f["yaw"]) & np.isfinite(f["v"])
-                & (np.abs(f["v"]) < MAX_SPEED))
-        culprit = self.table.names[int(np.flatnonzero(bad)[0])] if bad.any() else self.models.unstable_model()
-        if culprit is not None:
-            self.faulted = FleetError(ErrorCode.PHYSICS_UNSTABLE,
-                                      f"body '{culprit}' has a NaN or exploding state at t={self._time:.3f} s",
-                                      "restore a snapshot or reset; check masses, inertias and overlaps")
-            raise self.faulted
+        world_motion.check_physics_health(self)
 
     # ---- sensors ---------------------------------------------------------------------------------------
 

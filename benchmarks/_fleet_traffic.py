@@ -39,7 +39,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
             i = tm.names.index(name)
             while True:
                 g = int(rng.integers(len(grid)))
-                if dist_ok(g, int(tm.cur[i])):
+                if dist_ok(g, int(tm.cells[i])):
                     tm.go(name, *grid.xy[g])
                     return
 

@@ -67,5 +67,12 @@ class TrafficGrid:
             return -1
         return int(self.index[ix * self.ny + iy])
 
+    def nodes_at(self, xy: np.ndarray) -> np.ndarray:
+        """node_at for many points (n, 2) at once."""
+        ix = np.floor((xy[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
+        iy = np.floor((xy[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
+        ok = (ix >= 0) & (ix < self.nx) & (iy >= 0) & (iy < self.ny)
+        return np.where(ok, self.index[np.where(ok, ix * self.ny + iy, 0)], -1)
+
     def nearest_node(self, x: float, y: float) -> int:
         return int(np.argmin(np.hypot(self.xy[:, 0] - x, self.xy[:, 1] - y)))

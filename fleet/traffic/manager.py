@@ -34,7 +34,7 @@ from sim.transforms import wrap_angles
 if TYPE_CHECKING:
     from fleet.service import FleetService
 
-TURN_TOL = 0.05  # rad: a robot faces its next cell within this before it drives
+TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -45,7 +45,7 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0, window: int = 4, record: bool = False) -> None:
+                 stall_s: float = 10.0, window: int = 3, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -205,9 +205,10 @@ class TrafficManager:
                 self.claim[i], self.claim_step[i] = sched.claim(i)
         # 4. profiles and commands (numpy over all robots)
         v, w = self._drive(now, dt, pos, yaw)
-        # 5. plan one more PIBT step when someone has nothing queued and nobody is `window` steps behind
+        # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
+        #    queued already sit this step out (they can be neither moved nor pushed: bounded look-ahead)
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
-        if want.any() and sched.lag(self.seg_step).max(initial=0) < self.window:
+        if want.any():
             self._plan(now)
         self._stalls(now)
         return dict(zip(self.names, zip(v.tolist(), w.tolist(), strict=True), strict=True))
@@ -232,7 +233,7 @@ class TrafficManager:
         e = ref - pos
         along = e[:, 0] * unit[:, 0] + e[:, 1] * unit[:, 1]
         cross = -e[:, 0] * unit[:, 1] + e[:, 1] * unit[:, 0]
-        v = np.where(rolling | go, self.sign * (self.sd * cell + 2.0 * along), 0.0)
+        v = np.where(rolling | go, self.sign * (self.sd * cell + 2.0 * np.clip(along, -0.3, 0.1)), 0.0)
         w = np.where(moving, np.clip(4.0 * err + 3.0 * cross * rolling, -self.max_w, self.max_w), 0.0)
         return v, w
 
@@ -280,7 +281,7 @@ class TrafficManager:
                 self.service.events.publish(
                     now, "deadlock_resolved", (name, *others), f"{name} moving towards its goal again after "
                     f"{took:.1f} s: {why}", strategy="adg_pibt", duration=took)
-        if self.pending[i] and self.a[i] == self.goal[i] and self.a[i] == self.b[i]:
+        if self.pending[i] and self.a[i] == self.goal[i]:  # there, even if the plan moves it on (pushed)
             self.pending[i] = False
             self.stats["reached"] += 1
             if self.on_reached is not None:
@@ -289,7 +290,11 @@ class TrafficManager:
     def _plan(self, now: float) -> None:
         tail = self.sched.tail
         priority = (now - self.since) * (self.goal != tail) + self._tie
-        nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority), np.int64)
+        frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
+        ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
+        prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
+        nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),
+                         np.int64)
         self.sched.append(nxt)
         self.stats["steps"] += 1
         self.stats["pushes"] += len(self.pibt.pushes)

@@ -30,8 +30,11 @@ def leader_cap(start: np.ndarray, seg: np.ndarray, lead: np.ndarray, gap: float)
 
 def advance(s: np.ndarray, sd: np.ndarray, stop: np.ndarray, go: np.ndarray, vmax: np.ndarray, accel: float,
             dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """One control period of the braking-limited profile: new progress and rate (cells, cells/s)."""
-    brake = np.sqrt(2.0 * accel * np.maximum(stop - s, 0.0))
+    """One control period of the braking-limited profile: new progress and rate (cells, cells/s). The rate is
+    held for the whole period, so it is the largest v with v·dt + v²/(2·accel) ≤ the distance left: the
+    profile can always stop in time at `accel`, with no sudden drop at the end."""
+    ad = accel * dt
+    brake = -ad + np.sqrt(ad * ad + 2.0 * accel * np.maximum(stop - s, 0.0))
     target = np.where(go, np.minimum(sd + accel * dt, vmax), np.maximum(sd - accel * dt, 0.0))
     sd = np.maximum(np.minimum(target, brake), 0.0)
     return np.minimum(s + sd * dt, np.maximum(stop, s)), sd

@@ -27,13 +27,21 @@ class PIBT:
         self.rng = np.random.default_rng(seed)
         self.pushes: list[tuple[int, int]] = []  # (pusher, pushed) of the last step: priority inheritance
 
-    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray) -> list[int]:
-        """The next node of every agent (its own node when it waits)."""
+    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
+             frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
+        """The next node of every agent (its own node when it waits). `frozen` agents stay where they are and
+        cannot be pushed (the traffic layer's robots with enough moves queued already): obstacles this step.
+        `prefer`: per agent, the node that goes straight on (-1: none); among nodes equally close to the goal it
+        comes first, so robots do not zig-zag (every turn costs a real robot a stop and a turn in place)."""
         self.cur, self.goals = list(cur), list(goals)
+        self.prefer = list(prefer) if prefer is not None else [-1] * len(self.cur)
         self.occ = {v: i for i, v in enumerate(self.cur)}
         self.nxt = [-1] * len(self.cur)
         self.reserved: dict[int, int] = {}
         self.pushes = []
+        for i in frozen:
+            self.nxt[i] = self.cur[i]
+            self.reserved[self.cur[i]] = i
         for i in np.argsort(-priority, kind="stable").tolist():
             if self.nxt[i] < 0:
                 self._pibt(i, None)
@@ -43,7 +51,8 @@ class PIBT:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
-        order = np.lexsort((self.rng.random(len(cands)), dist[cands]))  # nearest to goal, random ties
+        straight = [v != self.prefer[i] for v in cands]
+        order = np.lexsort((self.rng.random(len(cands)), straight, dist[cands]))  # nearest, straight on, random
         for v in (cands[k] for k in order):
             if v in self.reserved or (pusher is not None and v == self.cur[pusher]):
                 continue

@@ -32,6 +32,7 @@ class Schedule:
         self.fifo: list[deque[int]] = [deque() for _ in range(n_cells)]
         self.queue: list[deque[tuple[int, int]]] = []  # per robot: planned (cell, step) not yet claimed
         self.tail = np.zeros(0, np.int64)  # per robot: last planned cell
+        self.before = np.zeros(0, np.int64)  # per robot: the planned cell before its tail (-1: none)
         self.head_step = np.zeros(0, np.int64)  # per robot: plan step of its first queued move (BIG: none)
         self.step = 0  # planned steps so far
         self.record = record
@@ -42,6 +43,7 @@ class Schedule:
         i = len(self.queue)
         self.queue.append(deque())
         self.tail = np.append(self.tail, cell)
+        self.before = np.append(self.before, -1)
         self.head_step = np.append(self.head_step, BIG)
         self.at[cell] = i
         return i
@@ -51,6 +53,7 @@ class Schedule:
         self.at[cell] = -1
         del self.queue[i]
         self.tail = np.delete(self.tail, i)
+        self.before = np.delete(self.before, i)
         self.head_step = np.delete(self.head_step, i)
         for arr in (self.at, self.leaving):
             arr[arr > i] -= 1
@@ -70,6 +73,7 @@ class Schedule:
                 self.head_step[i] = self.step
             self.queue[i].append((v, self.step))
             self.fifo[v].append(i)
+            self.before[i] = self.tail[i]
             self.tail[i] = v
             if self.record:
                 self.planned_entries.append((v, i))
@@ -102,11 +106,10 @@ class Schedule:
         if self.leaving[cell] == i:
             self.leaving[cell] = -1
 
-    def lag(self, seg_step: np.ndarray) -> np.ndarray:
-        """Per robot, planned steps not yet completed (waits complete at once; `seg_step`: the step of the move
-        under way, BIG when at rest)."""
-        first = np.minimum(self.head_step, seg_step)
-        return np.where(first < BIG, self.step - first + 1, 0)
+    @property
+    def queued(self) -> np.ndarray:
+        """Per robot, planned moves not yet claimed."""
+        return np.fromiter((len(q) for q in self.queue), np.int64, len(self.queue))
 
     def blockers(self, i: int) -> list[int]:
         """The robots robot i waits for to enter its next planned cell (ahead in the FIFO, in or leaving it)."""

@@ -51,7 +51,7 @@ class PIBT:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
-        straight = [v != self.prefer[i] for v in cands]
+        straight = np.array([v != self.prefer[i] for v in cands])
         order = np.lexsort((self.rng.random(len(cands)), straight, dist[cands]))  # nearest, straight on, random
         for v in (cands[k] for k in order):
             if v in self.reserved or (pusher is not None and v == self.cur[pusher]):

@@ -17,10 +17,11 @@ if TYPE_CHECKING:
 
 
 class TrafficGrid:
-    """Cells of side `cell` whose centres are at least `radius` + `margin` from every static obstacle."""
+    """Cells of side `cell` whose centres are at least `radius` + `margin` from every static obstacle; 4-connected
+    where the straight segment between centres clears them too."""
 
     def __init__(self, clearance: StaticClearance, bounds: tuple[float, float, float, float], cell: float,
-                 radius: float, margin: float = 0.05) -> None:
+                 radius: float, margin: float = 0.05, lane_cost: float = 1.0) -> None:
         if not (math.isfinite(cell) and cell > 0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"cell must be > 0 m, got {cell}")
         self.cell = cell
@@ -52,7 +53,11 @@ class TrafficGrid:
             rows.append(np.flatnonzero(keep))
             cols.append(other[keep])
         r, c = np.concatenate(rows), np.concatenate(cols)
-        self.adjacency = csr_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        # One-lane cells (two neighbours or fewer) cost `lane_cost` to cross: robots use the wide aisles when
+        # that is not much longer, so fewer meet head-on where one of them must back out.
+        deg = np.bincount(r, minlength=n)
+        cost = np.where(deg <= 2, lane_cost, 1.0)
+        self.adjacency = csr_matrix((0.5 * (cost[r] + cost[c]), (r, c)), shape=(n, n))
         self.neighbours = [self.adjacency.indices[self.adjacency.indptr[i]:self.adjacency.indptr[i + 1]].tolist()
                            for i in range(n)]
         self.fields = DistanceFields(self.adjacency)

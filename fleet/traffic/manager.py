@@ -45,7 +45,7 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0, window: int = 3, record: bool = False) -> None:
+                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 1.0, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -55,7 +55,8 @@ class TrafficManager:
                              f"radius {self.radius:.3f} m", f"use cell ≥ {self.gap:.2f} m")
         if window < 1:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic window must be ≥ 1 step, got {window}")
-        self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius)
+        self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
+                                lane_cost=lane_cost)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.sched = Schedule(len(self.grid), record)
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²

@@ -207,7 +207,8 @@ class TrafficManager:
         # 4. profiles and commands (numpy over all robots)
         v, w = self._drive(now, dt, pos, yaw)
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
-        #    queued already sit this step out (they can be neither moved nor pushed: bounded look-ahead)
+        #    queued already sit this step out (neither moved nor pushed: bounded look-ahead), as in Causal-PIBT
+        #    only robots ready to act take part, so a slow robot holds up only the robots that need its cells.
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)

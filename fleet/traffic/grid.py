@@ -35,6 +35,7 @@ class TrafficGrid:
         self.index[free] = np.arange(int(free.sum()))
         self.xy = centres[free]  # node → centre
         self.cells = np.flatnonzero(free)
+        self.ij = np.column_stack([self.cells // self.ny, self.cells % self.ny])  # node → grid (ix, iy)
         n = len(self.cells)
         rows, cols = [], []
         gx, gy = self.cells // self.ny, self.cells % self.ny

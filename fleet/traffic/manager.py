@@ -200,10 +200,14 @@ class TrafficManager:
         for i in np.flatnonzero(queued & ~moving).tolist():
             if sched.can_claim(i):
                 self._start(i, yaw[i])
-        for i in np.flatnonzero(queued & moving & (self.claim < 0)).tolist():
-            nv = sched.queue[i][0][0]
-            if np.allclose(xy[nv] - xy[self.b[i]], xy[self.b[i]] - xy[self.a[i]]) and sched.can_claim(i):
-                self.claim[i], self.claim_step[i] = sched.claim(i)
+        on = np.flatnonzero(queued & moving & (self.claim < 0))
+        if on.size:
+            nv = np.fromiter((sched.queue[i][0][0] for i in on.tolist()), np.int64, on.size)
+            g, a, b = self.grid.ij, self.a[on], self.b[on]
+            straight = np.all(g[nv] - g[b] == g[b] - g[a], axis=1)
+            for i in on[straight].tolist():
+                if sched.can_claim(i):
+                    self.claim[i], self.claim_step[i] = sched.claim(i)
         # 4. profiles and commands (numpy over all robots)
         v, w = self._drive(now, dt, pos, yaw)
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves

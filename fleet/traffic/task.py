@@ -1,5 +1,6 @@
-"""`traffic_go`: a go-to task driven by the traffic layer, so every door that submits tasks (MCP queue_task,
-Zenoh, mission `tasks:`, assign_tasks) can use it.
+"""`traffic_go`: a go-to task driven by the traffic layer, so every door that submits tasks can use it: mission
+`tasks:` (CLI, MCP mission tools), `svc.submit_task`, and — being allocatable — MCP `queue_task` +
+`assign_tasks` and the allocator.
 
 The first traffic_go task enables the layer if the service has none (settings from the task's `traffic:`
 parameter, or the mission's `traffic:` section, which enables it at setup). The robot joins the layer when the
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from fleet.tasks.base import Command, Task, TaskContext, pose_param, register_task
+from fleet.tasks.types import WorkProfile
 from sim.errors import ErrorCode, FleetError
 
 if TYPE_CHECKING:
@@ -52,7 +54,13 @@ class TrafficGoTask(Task):
     `traffic`: {cell, speed, window, stall_s, lane_cost, seed} used if this task enables the layer."""
 
     type_name = "traffic_go"
+    allocatable = True  # MCP queue_task + assign_tasks, the allocator: like go_to
     layer: Any = None  # the TrafficManager, once begun
+
+    @classmethod
+    def work_profile(cls, params: dict[str, Any], service: FleetService) -> WorkProfile:
+        g = pose_param(params)
+        return WorkProfile(start=(g.x, g.y), end=(g.x, g.y))
 
     def validate(self, service: FleetService) -> None:
         pose_param(self.params)

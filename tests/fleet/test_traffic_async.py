@@ -228,3 +228,23 @@ def test_mission_traffic_key_and_traffic_go_tasks(tmp: Path) -> None:
         from fleet.missions import load_mission
 
         load_mission(path)
+
+
+def test_traffic_go_through_the_task_queue_and_allocator(tmp: Path) -> None:
+    """The door MCP queue_task + assign_tasks uses: the first traffic_go task enables the layer."""
+    with FleetService(FleetConfig(world=str(world(tmp, "ring", (2.8, 1.8))), seed=0, physics_hz=20.0,
+                                  control_hz=10.0)) as svc:
+        svc.spawn_robot("a", Pose2D(-1.5, -0.5, 0.0))
+        svc.spawn_robot("b", Pose2D(1.5, 0.5, 0.0))
+        for k, (x, y) in enumerate([(1.5, -0.5), (-1.5, 0.5)]):
+            svc.queue_task("traffic_go", {"goal": {"x": x, "y": y}, "traffic": {"speed": 0.6}}, id=f"g{k}")
+        result = svc.assign_tasks(None, ["a", "b"], "greedy")
+        assert len(result.assignments) == 2 and not result.infeasible
+        ids = [asg.task_ids[-1] for asg in result.assignments]
+        for _ in range(30):
+            svc.advance(2.0)
+            if all(svc.tasks.tasks[t].state.value == "succeeded" for t in ids):
+                break
+        assert [svc.tasks.tasks[t].state.value for t in ids] == ["succeeded", "succeeded"]
+        poses = sorted((round(p.x, 1), round(p.y, 1)) for p in (svc.world.robot_pose("a"), svc.world.robot_pose("b")))
+        assert poses == [(-1.5, 0.5), (1.5, -0.5)]

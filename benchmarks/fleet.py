@@ -19,6 +19,8 @@ guided Theta* planner, regulated pure pursuit at 0.6 m/s, navigator reactive lay
         # issue 17: the PIBT traffic layer (360-beam lidar at 10 Hz, independent collision check) beside ORCA
     .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 10 --traffic --traffic-lidar on off \
         --avoidance orca --baseline-minutes 2     # the traffic layer with lidar on and off, then ORCA
+    .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 3 --traffic-only --traffic-lidar off \
+        --priority goal_age since_progress        # the two PIBT priority rules, same run
 """
 
 from __future__ import annotations
@@ -154,6 +156,8 @@ def main() -> None:
     ap.add_argument("--traffic-lidar", nargs="*", choices=("on", "off"), default=["on"],
                     help="traffic-layer runs with the 360-beam lidar on, off, or both (default on)")
     ap.add_argument("--window", type=int, default=2, help="traffic layer: moves a robot may have queued (default 2)")
+    ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
+                    help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -177,10 +181,11 @@ def main() -> None:
                          "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    r = run_traffic(n, minutes, a.seed, models[lid], window=a.window,
-                                    lidar="360 beams 10 Hz" if lid == "on" else "off")
-                    print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
-                          flush=True)
+                    for prio in a.priority:
+                        r = run_traffic(n, minutes, a.seed, models[lid], window=a.window, priority=prio,
+                                        lidar="360 beams 10 Hz" if lid == "on" else "off")
+                        print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
+                              flush=True)
                 print(" | ".join(cols))
             if a.traffic_only:
                 continue

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -28,7 +28,7 @@ from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
 from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
-from sim.errors import ErrorCode, FleetError
+from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.transforms import wrap_angles
 
 if TYPE_CHECKING:
@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
+PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
 
@@ -45,7 +46,8 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 1.0, record: bool = False) -> None:
+                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 1.0,
+                 priority: Literal["goal_age", "since_progress"] = "goal_age", record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -53,6 +55,9 @@ class TrafficManager:
         if self.gap > cell:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
                              f"radius {self.radius:.3f} m", f"use cell ≥ {self.gap:.2f} m")
+        if priority not in PRIORITIES:
+            raise unknown_name("traffic priority", priority, list(PRIORITIES), ErrorCode.INVALID_ARGUMENT)
+        self.priority = priority
         if window < 1:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic window must be ≥ 1 step, got {window}")
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
@@ -295,7 +300,8 @@ class TrafficManager:
 
     def _plan(self, now: float) -> None:
         tail = self.sched.tail
-        priority = (now - self.since) * (self.goal != tail) + self._tie
+        since = self.best_at if self.priority == "since_progress" else self.since
+        priority = (now - since) * (self.goal != tail) + self._tie
         frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
@@ -336,5 +342,5 @@ class TrafficManager:
 
     def describe(self) -> dict[str, Any]:
         return {"robots": len(self.names), "cells": len(self.grid), "cell_m": self.grid.cell,
-                "window": self.window, "plan_step": self.sched.step,
+                "window": self.window, "priority": self.priority, "plan_step": self.sched.step,
                 "fields_computed": self.grid.fields.computed, "open_deadlocks": len(self.open_stalls), **self.stats}

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from fleet.service import FleetService
     from fleet.traffic.manager import TrafficManager
 
-SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed")
+SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed", "priority")
 
 
 def traffic_layer(service: FleetService) -> TrafficManager | None:
@@ -67,7 +67,7 @@ class TrafficGoTask(Task):
         extra = sorted(set(self.params) - {"goal", "traffic"})
         if extra:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic_go does not take {', '.join(extra)}",
-                             "parameters: goal {x, y}, traffic {cell, speed, window, stall_s, lane_cost, seed}")
+                             "parameters: goal {x, y}, traffic {" + ", ".join(SETTINGS) + "}")
         settings = self.params.get("traffic", {})
         if not isinstance(settings, dict) or set(settings) - set(SETTINGS):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic_go: bad traffic settings {settings!r}",

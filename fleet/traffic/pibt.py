@@ -4,13 +4,16 @@ Every agent, highest priority first, takes the free neighbouring node (or its ow
 shared cost-to-go field. An agent whose wanted node is occupied by an undecided agent lends that agent its
 priority, and the lower agent must move out of the way (never into the pusher's node: no swaps); if it cannot,
 the pusher backtracks and tries its next node. Vertex and swap conflicts are impossible by construction, and
-with priorities that grow while an agent is away from its goal, every agent reaches its goal in finite time on
-graphs where adjacent nodes lie on a common cycle (the lifelong-MAPF property the traffic layer relies on).
+with priorities that grow while an agent is away from its goal, the highest-priority agent always gets closer,
+so every agent reaches its goal in finite time on graphs where adjacent nodes lie on a common cycle (the
+lifelong-MAPF property the traffic layer relies on).
 
-One change for real robots: an agent does not follow another around a closed loop of moves (a rotation), so
-a robot entering a node another robot is vacating always has a leader that started first (traffic/motion.py
-times the followers); rotations are not needed for the reachability argument (a push chain ends at a free
-node, never in a loop).
+Changes for real robots (fleet/traffic/manager.py executes the steps asynchronously):
+- an agent does not follow another around a closed loop of moves (a rotation): each robot would wait for the
+  one ahead to clear its cell. The reachability argument above assumes rotations are allowed, so in packed
+  corners the guarantee is weaker (a push chain that would close a loop must end elsewhere or wait);
+- `frozen` agents (robots with enough moves queued already) neither move nor get pushed this step;
+- among nodes equally close to the goal, the one straight on comes first (a turn costs a stop).
 """
 
 from __future__ import annotations

@@ -112,7 +112,9 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 "closest_robot_gap_m": closest["robot"], "closest_obstacle_gap_m": closest["obstacle"],
                 "deadlocks": d["deadlocks"], "resolved": d["resolved"], "unresolved": d["open_deadlocks"],
                 "longest_deadlock_s": d["longest_deadlock_s"], "fields_computed": d["fields_computed"],
-                "world_contacts": episodes["world_contacts"], "pibt_steps": d["steps"], "rtf": svc.world.time / wall,
+                "world_contacts": episodes["world_contacts"],
+                "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
+                "rtf": svc.world.time / wall,
                 "rtf_cpu": svc.world.time / cpu, "wall_s": wall, "cpu_s": cpu,
                 "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}"}
     finally:

@@ -19,6 +19,7 @@ it took. The ADG is acyclic and PIBT's priorities grow while a robot is away fro
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -98,7 +99,7 @@ class TrafficManager:
         self.on_reached: Callable[[str, float], None] | None = None
         self.open_stalls: dict[str, tuple[float, list[str], str]] = {}
         self.stats: dict[str, Any] = {"steps": 0, "moves": 0, "reached": 0, "deadlocks": 0, "resolved": 0,
-                                      "longest_deadlock_s": 0.0, "pushes": 0}
+                                      "longest_deadlock_s": 0.0, "pushes": 0, "ticks": 0, "cpu_s": 0.0}
 
     # ---- robots and goals --------------------------------------------------------------------------------
 
@@ -181,6 +182,13 @@ class TrafficManager:
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
         if not self.names:
             return {}
+        t0 = time.process_time()
+        out = self._tick(now)
+        self.stats["ticks"] += 1
+        self.stats["cpu_s"] += time.process_time() - t0
+        return out
+
+    def _tick(self, now: float) -> dict[str, tuple[float, float]]:
         dt = 0.0 if self._last is None else min(max(now - self._last, 0.0), 0.5)
         self._last = now
         t = self.service.world.table

@@ -1,10 +1,11 @@
 """The traffic layer: robots on a known map move cell to cell along a PIBT plan (fleet/traffic/pibt.py),
 executed asynchronously through an action-dependency graph (schedule.py), so they cannot collide with each
-other or deadlock; ORCA stays for robots outside the layer.
+other or wait on each other in a cycle; ORCA stays for robots outside the layer.
 
-Planning: PIBT plans synchronous steps on the planned configuration (the robots' last planned cells), a step
-whenever some robot with a goal has nothing queued, as long as no robot is more than `window` steps behind the
-plan (bounded look-ahead keeps plans fresh for new goals). Execution: each robot claims its next planned cell
+Planning: PIBT plans steps on the planned configuration (the robots' last planned cells), at most one per
+control tick, whenever some robot with a goal has nothing queued; robots with `window` moves queued already sit
+the step out (neither moved nor pushed), which bounds the look-ahead and keeps plans fresh for new goals.
+Execution: each robot claims its next planned cell
 as soon as the schedule lets it (first in the cell's FIFO, nobody in or entering it), turns to face it (or
 reverses into a cell behind), and drives there on a braking-limited profile that keeps `gap` from the robot
 leaving that cell, by ground truth (motion.py); a straight run continues through cell centres without
@@ -13,7 +14,9 @@ whose cells it needs, so slow or delayed robots hold up only those behind them.
 
 Waits: a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it and the
 robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
-it took. The ADG is acyclic and PIBT's priorities grow while a robot is away from its goal, so every wait ends.
+it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
+edge lies on a cycle, but robots can be pushed back and forth for a long time in one-lane aisles, and in dead
+ends PIBT can oscillate (pibt.py, docs/fleet.md).
 """
 
 from __future__ import annotations

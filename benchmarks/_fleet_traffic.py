@@ -4,11 +4,15 @@ Robots spawn at random distinct free traffic cells; each gets a random free goal
 the moment it arrives (lifelong). Collisions are counted by an independent check after every physics step
 from ground-truth poses: robot-robot where two footprint circles (radius = the spec's footprint radius)
 overlap, robot-obstacle where a footprint circle reaches a static obstacle on the occupancy grid; episodes
-are counted per pair (a pair touching on consecutive steps is one episode).
+are counted per pair (a pair touching on consecutive steps is one episode). The kinematic world itself never
+lets bodies interpenetrate (it reverts a colliding robot's step), so the check counts a pair as touching when
+its footprint circles come within 1 mm (`TOUCH_M`), and the world's own contact flags are counted beside it.
+Also reported: wall time and CPU time of the loop, the load average before and after, the longest wait.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any
 
@@ -19,14 +23,17 @@ from fleet import FleetConfig, FleetService
 from fleet.traffic import enable_traffic
 from sim import Pose2D
 
+TOUCH_M = 1e-3  # footprint circles closer than this count as touching
+
 
 def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 1.0, speed: float = 0.8,
-                physics_hz: float = 50.0) -> dict[str, Any]:
+                physics_hz: float = 50.0, window: int = 2, lidar: str = "360 beams 10 Hz",
+                priority: str = "goal_age") -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
         rng = np.random.default_rng(seed)
-        tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed)
+        tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed, window=window, priority=priority)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -39,7 +46,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
             i = tm.names.index(name)
             while True:
                 g = int(rng.integers(len(grid)))
-                if dist_ok(g, int(tm.cur[i])):
+                if dist_ok(g, int(tm.sched.tail[i])):
                     tm.go(name, *grid.xy[g])
                     return
 
@@ -62,43 +69,53 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         clearance = svc.static_clearance()
         pairs_now: set[tuple[int, int]] = set()
         walls_now: set[int] = set()
-        episodes = {"robot": 0, "obstacle": 0}
+        episodes = {"robot": 0, "obstacle": 0, "world_contacts": 0}
+        in_contact: set[int] = set()
         closest = {"robot": np.inf, "obstacle": np.inf}
         rows = [svc.world.table.index(nm) for nm in names]
 
         def check() -> None:
-            nonlocal pairs_now, walls_now
+            nonlocal pairs_now, walls_now, in_contact
             f = svc.world.table.f
+            hit_world = set(np.flatnonzero(svc.world.table.b["in_collision"][rows]).tolist())
+            episodes["world_contacts"] += len(hit_world - in_contact)
+            in_contact = hit_world
             xy = np.column_stack([f["x"][rows], f["y"][rows]])
             near = cKDTree(xy).query_pairs(2 * r + 0.2, output_type="ndarray")
             if len(near):
                 d = np.hypot(*(xy[near[:, 0]] - xy[near[:, 1]]).T)
                 closest["robot"] = min(closest["robot"], float(d.min()) - 2 * r)
-                hit = {(int(a), int(b)) for (a, b), dd in zip(near, d, strict=True) if dd < 2 * r}
+                hit = {(int(a), int(b)) for (a, b), dd in zip(near, d, strict=True) if dd < 2 * r + TOUCH_M}
             else:
                 hit = set()
             episodes["robot"] += len(hit - pairs_now)
             pairs_now = hit
             c = clearance.query(xy)[0] - r
             closest["obstacle"] = min(closest["obstacle"], float(c.min()))
-            wall = set(np.flatnonzero(c < 0).tolist())
+            wall = set(np.flatnonzero(c < TOUCH_M).tolist())
             episodes["obstacle"] += len(wall - walls_now)
             walls_now = wall
 
         svc.step_listeners.append(check)
-        t0 = time.perf_counter()
+        load0 = os.getloadavg()[0]
+        t0, c0 = time.perf_counter(), time.process_time()
         end = minutes * 60.0
         while svc.world.time < end - 1e-9:
             svc.advance(min(5.0, end - svc.world.time))
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         d = tm.describe()
         in_progress = int(np.count_nonzero(tm.pending))
-        return {"robots": n, "avoidance": "traffic (PIBT)", "sim_min": minutes, "done": len(done),
+        return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}), lidar {lidar}", "sim_min": minutes,
+                "done": len(done),
                 "done_per_min": len(done) / minutes, "failed": 0, "in_progress": in_progress,
                 "robot_collisions": episodes["robot"], "obstacle_hits": episodes["obstacle"],
                 "closest_robot_gap_m": closest["robot"], "closest_obstacle_gap_m": closest["obstacle"],
                 "deadlocks": d["deadlocks"], "resolved": d["resolved"], "unresolved": d["open_deadlocks"],
                 "longest_deadlock_s": d["longest_deadlock_s"], "fields_computed": d["fields_computed"],
-                "pibt_steps": d["steps"], "rtf": svc.world.time / wall, "wall_s": wall}
+                "world_contacts": episodes["world_contacts"],
+                "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
+                "rtf": svc.world.time / wall,
+                "rtf_cpu": svc.world.time / cpu, "wall_s": wall, "cpu_s": cpu,
+                "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}"}
     finally:
         svc.close()

@@ -17,6 +17,10 @@ guided Theta* planner, regulated pure pursuit at 0.6 m/s, navigator reactive lay
     .venv/bin/python benchmarks/fleet.py --robots 50 --minutes 2 --avoidance orca
     .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 10 --traffic --avoidance orca --baseline-minutes 2
         # issue 17: the PIBT traffic layer (360-beam lidar at 10 Hz, independent collision check) beside ORCA
+    .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 10 --traffic --traffic-lidar on off \
+        --avoidance orca --baseline-minutes 2     # the traffic layer with lidar on and off, then ORCA
+    .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 3 --traffic-only --traffic-lidar off \
+        --priority goal_age since_progress        # the two PIBT priority rules, same run
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ NAVIGATION = {"controller": {"type": "pure_pursuit", "desired_linear_vel": 0.6},
               "planner": {"type": "guided_theta_star"}}
 LIDAR = {"beams": 90, "rate_hz": 5.0}  # the navigators' reactive layer still sees obstacles; 8x fewer rays
 LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
+LIDAR_OFF = {"enabled": False}
 
 
 def robot_model(tmp: Path, lidar: dict[str, Any] = LIDAR, name: str = "diffbot_bench.yaml") -> str:
@@ -99,7 +104,7 @@ def run(n: int, minutes: float, avoidance: str, seed: int, model: str) -> dict[s
         done = failed = 0
         reasons: dict[str, int] = {}
         end = minutes * 60.0
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         seen = svc.events.last_seq
         while svc.world.time < end - 1e-9:
             for r in svc.robot_names():  # a new goal for every robot that has none
@@ -114,14 +119,14 @@ def run(n: int, minutes: float, avoidance: str, seed: int, model: str) -> dict[s
                     key = str(ev.data.get("reason", ""))[:60]
                     reasons[key] = reasons.get(key, 0) + 1
             seen = svc.events.last_seq
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         rep = svc.deadlock_report()
         return {"robots": n, "avoidance": avoidance, "sim_min": minutes, "done_per_min": done / minutes,
                 "done": done, "failed": failed, "robot_collisions": len({p for p, _ in _episodes(contacts)}),
                 "robot_contacts": len(_episodes(contacts)), "obstacle_hits": obstacle_hits,
                 "near_misses": svc.control.stats["near_misses"], "deadlocks": rep["detected"],
                 "resolved": rep["resolved"], "unresolved": rep["unresolved"], "rtf": svc.world.time / wall,
-                "wall_s": wall, "fail_reasons": dict(sorted(reasons.items(), key=lambda kv: -kv[1])[:3])}
+                "wall_s": wall, "cpu_s": cpu, "fail_reasons": dict(sorted(reasons.items(), key=lambda kv: -kv[1])[:3])}
     finally:
         svc.close()
 
@@ -148,28 +153,39 @@ def main() -> None:
                     help="issue 17: also run the PIBT traffic layer (fleet/traffic) with 360-beam lidar at 10 Hz, "
                          "collisions counted independently from ground-truth poses (_fleet_traffic.py)")
     ap.add_argument("--traffic-only", action="store_true", help="only the traffic-layer runs")
+    ap.add_argument("--traffic-lidar", nargs="*", choices=("on", "off"), default=["on"],
+                    help="traffic-layer runs with the 360-beam lidar on, off, or both (default on)")
+    ap.add_argument("--window", type=int, default=2, help="traffic layer: moves a robot may have queued (default 2)")
+    ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
+                    help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
     robots = a.robots or ([20, 50] if a.quick else [20, 50, 100])
     minutes = a.minutes or (1.0 if a.quick else 10.0)
     cols = ("robots", "avoidance", "done_per_min", "failed", "robot_collisions", "robot_contacts", "obstacle_hits",
-            "near_misses", "deadlocks", "resolved", "rtf", "wall_s")
+            "near_misses", "deadlocks", "resolved", "rtf", "wall_s", "cpu_s")
     print(f"warehouse.world, {minutes:g} sim-minutes per run, seed {a.seed}")
     print(" | ".join(cols))
     with tempfile.TemporaryDirectory() as tmp:
         model = robot_model(Path(tmp))
-        full = robot_model(Path(tmp), LIDAR_FULL, "diffbot_full.yaml")
+        models = {"on": robot_model(Path(tmp), LIDAR_FULL, "diffbot_full.yaml"),
+                  "off": robot_model(Path(tmp), LIDAR_OFF, "diffbot_nolidar.yaml")}
         for n in robots:
             if a.traffic or a.traffic_only:
                 from _fleet_traffic import run_traffic
 
-                r = run_traffic(n, minutes, a.seed, full)
                 tcols = ("robots", "avoidance", "done", "done_per_min", "in_progress", "robot_collisions",
-                         "obstacle_hits", "closest_robot_gap_m", "closest_obstacle_gap_m", "deadlocks", "resolved",
-                         "unresolved", "longest_deadlock_s", "fields_computed", "rtf", "wall_s")
+                         "obstacle_hits", "world_contacts", "closest_robot_gap_m", "closest_obstacle_gap_m",
+                         "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "fields_computed",
+                         "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
-                print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols), flush=True)
+                for lid in a.traffic_lidar:
+                    for prio in a.priority:
+                        r = run_traffic(n, minutes, a.seed, models[lid], window=a.window, priority=prio,
+                                        lidar="360 beams 10 Hz" if lid == "on" else "off")
+                        print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
+                              flush=True)
                 print(" | ".join(cols))
             if a.traffic_only:
                 continue

@@ -157,6 +157,11 @@ class FleetView(Protocol):
 
     def make_navigator(self, robot: str, overrides: dict[str, Any] | None = None) -> Navigator: ...
 
+    def traffic_layer(self, enable: Mapping[str, Any] | None = None) -> Any:
+        """The fleet's traffic layer (fleet/traffic TrafficManager), or None; with `enable` (its settings) it is
+        enabled when there is none."""
+        ...
+
     # ---- command sink ---------------------------------------------------------------------------------
 
     def publish(self, stamp: float, kind: str, robots: Iterable[str] = (), message: str = "", **data: Any) -> None:

@@ -105,6 +105,11 @@ class ServiceView:
     def make_navigator(self, robot: str, overrides: dict[str, Any] | None = None) -> Navigator:
         return self._svc.make_navigator(robot, overrides)
 
+    def traffic_layer(self, enable: Mapping[str, Any] | None = None) -> Any:
+        from fleet.traffic.layer import ensure_traffic, traffic_layer
+
+        return traffic_layer(self._svc) if enable is None else ensure_traffic(self._svc, dict(enable))
+
     # ---- command sink ---------------------------------------------------------------------------------
 
     def publish(self, stamp: float, kind: str, robots: Iterable[str] = (), message: str = "", **data: Any) -> None:

@@ -172,10 +172,17 @@ class SyncParams(TaskParams):
     timeout_s: Opt[Seconds] = Field(None, description="s; omitted: wait forever")
 
 
+class TrafficGoParams(TaskParams):
+    """The layer's settings are fleet-wide: the mission's `traffic:` key or fleet.traffic.enable_traffic; a first
+    traffic_go task with no layer enables one with the defaults."""
+
+    goal: Pose = Field(description="{x, y} or [x, y]")
+
+
 PARAMS: dict[str, type[TaskParams]] = {
     "wait": WaitParams, "stop": StopParams, "go_to": GoToParams, "return_home": ReturnHomeParams,
     "dock_and_charge": DockAndChargeParams, "follow_robot": FollowRobotParams, "cover_area": CoverAreaParams,
-    "follow_waypoints": FollowWaypointsParams, "sync": SyncParams}
+    "follow_waypoints": FollowWaypointsParams, "sync": SyncParams, "traffic_go": TrafficGoParams}
 
 
 def model_of(type_name: str) -> type[TaskParams] | None:

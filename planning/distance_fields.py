@@ -1,5 +1,6 @@
-"""Shared cost-to-go fields on a static graph: one breadth-first distance field per goal, computed once and
-cached (LRU), for every robot heading to that goal (issue 17: not per plan, not per robot)."""
+"""Shared cost-to-go fields on a static graph: one distance field per goal (breadth-first on an unweighted
+graph, Dijkstra on a weighted one), computed once and cached (LRU), for every robot heading to that goal
+(issue 17: not per plan, not per robot)."""
 
 from __future__ import annotations
 
@@ -11,20 +12,22 @@ from scipy.sparse.csgraph import shortest_path
 
 
 class DistanceFields:
-    """Hop distances to a goal node over a fixed unweighted graph (CSR adjacency), cached per goal."""
+    """Distances to a goal node over a fixed graph (CSR adjacency; edge weights are costs, all 1: hops),
+    cached per goal."""
 
     def __init__(self, adjacency: csr_matrix, capacity: int = 4096) -> None:
         self.adjacency = adjacency
+        self.unweighted = bool(np.all(adjacency.data == 1.0))
         self.capacity = capacity
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
         self.computed = 0  # fields computed (cache misses), for benchmarks
 
     def to(self, goal: int) -> np.ndarray:
-        """Distance (hops) from every node to `goal`; inf where unreachable. The graph is undirected, so this
-        is the distance from `goal` outward."""
+        """Distance from every node to `goal`; inf where unreachable. The graph is undirected, so this is the
+        distance from `goal` outward."""
         field = self._cache.get(goal)
         if field is None:
-            field = shortest_path(self.adjacency, unweighted=True, indices=goal, directed=False)
+            field = shortest_path(self.adjacency, unweighted=self.unweighted, indices=goal, directed=False)
             field.setflags(write=False)
             self._cache[goal] = field
             self.computed += 1

@@ -76,6 +76,19 @@ class FleetEntry(StrictModel):
     fidelity: Literal["kinematic", "dynamic"] | None = None
 
 
+class TrafficSection(StrictModel):
+    """The traffic layer (fleet/traffic): PIBT on a grid of the static map, executed asynchronously. Robots join
+    it with `traffic_go` tasks (they must stand at traffic cell centres)."""
+
+    type: Literal["pibt"] = "pibt"
+    cell: float = Field(1.0, gt=0, description="grid cell side, m (≥ the footprint diameter + 0.1 m)")
+    speed: float = Field(0.6, gt=0, description="peak speed along the cells, m/s")
+    window: int = Field(2, ge=1, le=16, description="moves a robot may have planned ahead")
+    stall_s: float = Field(10.0, gt=0, description="no progress for this long raises a deadlock event")
+    priority: Literal["goal_age", "since_progress"] = Field(
+        "goal_age", description="PIBT priority: time since the goal was given, or since the robot last got closer")
+
+
 class TaskEntry(StrictModel):
     id: str | None = Field(None, pattern=NAME, description="key for assertions (default: <type>_<index>)")
     robot: str
@@ -155,6 +168,7 @@ class Mission(StrictModel):
     physics: PhysicsSection = Field(default_factory=PhysicsSection)
     navigation: dict[str, Any] = Field(default_factory=dict, description="planning.NavigatorConfig fields")
     avoidance: dict[str, Any] = Field(default_factory=lambda: {"type": "orca"})
+    traffic: TrafficSection | None = Field(None, description="enable the traffic layer (traffic_go tasks)")
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
     battery: BatteryConfig = Field(default_factory=BatteryConfig)
     costmap_resolution: float = Field(0.05, gt=0.005, le=1.0)

@@ -57,6 +57,11 @@ def spawn_robots(m: Mission, svc: FleetService, data: RunData) -> None:
     for name in svc.world.robot_names():
         spec = svc.world.robot_spec(name)
         data.radius[name], data.v_max[name] = spec.footprint_radius, spec.limits.max_linear
+    if m.traffic is not None:  # before any task: traffic_go tasks join this layer
+        from fleet.traffic import ensure_traffic
+
+        settings = m.traffic.model_dump(exclude={"type"})
+        svc.call(lambda: ensure_traffic(svc, settings))
 
 
 def timeline(m: Mission, svc: FleetService, data: RunData) -> list[Scheduled]:

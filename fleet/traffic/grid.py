@@ -17,10 +17,11 @@ if TYPE_CHECKING:
 
 
 class TrafficGrid:
-    """Cells of side `cell` whose centres are at least `radius` + `margin` from every static obstacle."""
+    """Cells of side `cell` whose centres are at least `radius` + `margin` from every static obstacle; 4-connected
+    where the straight segment between centres clears them too."""
 
     def __init__(self, clearance: StaticClearance, bounds: tuple[float, float, float, float], cell: float,
-                 radius: float, margin: float = 0.05) -> None:
+                 radius: float, margin: float = 0.05, lane_cost: float = 1.0) -> None:
         if not (math.isfinite(cell) and cell > 0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"cell must be > 0 m, got {cell}")
         self.cell = cell
@@ -34,6 +35,7 @@ class TrafficGrid:
         self.index[free] = np.arange(int(free.sum()))
         self.xy = centres[free]  # node → centre
         self.cells = np.flatnonzero(free)
+        self.ij = np.column_stack([self.cells // self.ny, self.cells % self.ny])  # node → grid (ix, iy)
         n = len(self.cells)
         rows, cols = [], []
         gx, gy = self.cells // self.ny, self.cells % self.ny
@@ -52,7 +54,11 @@ class TrafficGrid:
             rows.append(np.flatnonzero(keep))
             cols.append(other[keep])
         r, c = np.concatenate(rows), np.concatenate(cols)
-        self.adjacency = csr_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        # One-lane cells (two neighbours or fewer) cost `lane_cost` to cross: robots use the wide aisles when
+        # that is not much longer, so fewer meet head-on where one of them must back out.
+        deg = np.bincount(r, minlength=n)
+        cost = np.where(deg <= 2, lane_cost, 1.0)
+        self.adjacency = csr_matrix((0.5 * (cost[r] + cost[c]), (r, c)), shape=(n, n))
         self.neighbours = [self.adjacency.indices[self.adjacency.indptr[i]:self.adjacency.indptr[i + 1]].tolist()
                            for i in range(n)]
         self.fields = DistanceFields(self.adjacency)
@@ -66,6 +72,13 @@ class TrafficGrid:
         if not (0 <= ix < self.nx and 0 <= iy < self.ny):
             return -1
         return int(self.index[ix * self.ny + iy])
+
+    def nodes_at(self, xy: np.ndarray) -> np.ndarray:
+        """node_at for many points (n, 2) at once."""
+        ix = np.floor((xy[:, 0] - self.origin[0]) / self.cell).astype(np.int64)
+        iy = np.floor((xy[:, 1] - self.origin[1]) / self.cell).astype(np.int64)
+        ok = (ix >= 0) & (ix < self.nx) & (iy >= 0) & (iy < self.ny)
+        return np.where(ok, self.index[np.where(ok, ix * self.ny + iy, 0)], -1)
 
     def nearest_node(self, x: float, y: float) -> int:
         return int(np.argmin(np.hypot(self.xy[:, 0] - x, self.xy[:, 1] - y)))

@@ -1,37 +1,47 @@
-"""The traffic layer: robots on a known map move cell to cell in synchronous PIBT steps (fleet/traffic/pibt.py),
-so they cannot collide with each other or deadlock; ORCA stays for robots outside the layer.
+"""The traffic layer: robots on a known map move cell to cell along a PIBT plan (fleet/traffic/pibt.py),
+executed asynchronously through an action-dependency graph (schedule.py), so they cannot collide with each
+other or wait on each other in a cycle; ORCA stays for robots outside the layer.
 
-A step is planned for all robots at once (PIBT), then executed per robot in numpy: a mover turns in place to
-face its next cell (or its back, for a cell behind: it reverses), then travels one cell on a trapezoidal
-reference (at rest at both centres, so it never overshoots), tracked by feedback. A robot entering a cell
-another robot is leaving starts no earlier than that leader (straight on), or half a traverse after it (when
-the leader turns away), so it stays about a cell behind. Rotations of robots around a loop are never planned
-(pibt.py): leaders form a forest and every follower's leader starts first. The next step is planned when
-every mover has arrived.
-With cells wider than a robot's footprint diameter, any two robots stay ≥ about one cell apart at all times.
-A robot that makes no progress towards its goal for `stall_s` raises a deadlock event naming it and the
-robots in its way; the event closes (with its duration) when its priority, which grows while it waits,
-has carried it closer (PIBT's guarantee).
+Planning: PIBT plans steps on the planned configuration (the robots' last planned cells), at most one per
+control tick, whenever some robot with a goal has nothing queued; robots with `window` moves queued already sit
+the step out (neither moved nor pushed), which bounds the look-ahead and keeps plans fresh for new goals.
+Execution: each robot claims its next planned cell
+as soon as the schedule lets it (first in the cell's FIFO, nobody in or entering it), turns to face it (or
+reverses into a cell behind), and drives there on a braking-limited profile that keeps `gap` from the robot
+leaving that cell, by ground truth (motion.py); a straight run continues through cell centres without
+stopping when the next cell is already claimed. No fleet-wide barrier: a robot waits only for the robots
+whose cells it needs, so slow or delayed robots hold up only those behind them.
+
+Waits: a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it and the
+robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
+it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
+edge lies on a cycle, but robots can be pushed back and forth for a long time in one-lane aisles, and in dead
+ends PIBT can oscillate (pibt.py, docs/fleet.md).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from fleet.traffic.grid import TrafficGrid
+from fleet.traffic.motion import advance, leader_cap
 from fleet.traffic.pibt import PIBT
-from sim.errors import ErrorCode, FleetError
+from fleet.traffic.schedule import BIG, Schedule
+from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.transforms import wrap_angles
 
 if TYPE_CHECKING:
     from fleet.service import FleetService
 
-TURN_TOL = 0.05  # rad: movers face their next cell within this before the move phase
-ARRIVE_TOL = 0.12  # m: movers this close to their cell centre end the move phase (the next step may go on)
+TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
+ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
+PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
+GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
 
 class TrafficManager:
@@ -40,40 +50,59 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0) -> None:
+                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 1.0,
+                 priority: Literal["goal_age", "since_progress"] = "goal_age", record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
-        if 2 * self.radius + 0.1 > cell:
+        self.gap = 2 * self.radius + GAP_MARGIN
+        if self.gap > cell:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
-                             f"radius {self.radius:.3f} m", f"use cell ≥ {2 * self.radius + 0.1:.2f} m")
-        self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius)
+                             f"radius {self.radius:.3f} m", f"use cell ≥ {self.gap:.2f} m")
+        if priority not in PRIORITIES:
+            raise unknown_name("traffic priority", priority, list(PRIORITIES), ErrorCode.INVALID_ARGUMENT)
+        self.priority = priority
+        if window < 1:
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic window must be ≥ 1 step, got {window}")
+        self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
+                                lane_cost=lane_cost)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
-        # One cell on a trapezoidal profile (accelerate, cruise, brake to rest at the centre): a robot never
-        # overshoots into the next cell, whatever comes after.
-        self.accel = min(1.0, spec.limits.max_linear_accel * 0.7)
-        self.peak = min(speed, math.sqrt(self.accel * cell))
-        ramp = self.peak / self.accel
-        self.traverse_s = 2 * ramp + (cell - self.peak * ramp) / self.peak
+        self.sched = Schedule(len(self.grid), record)
+        self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
+        self.peak = speed / cell  # cells/s
         self.max_w = min(2.0, spec.limits.max_angular)
         self.stall_s = stall_s
+        self.window = window
         self.names: list[str] = []
-        self.cur = np.zeros(0, np.int64)
-        self.nxt = np.zeros(0, np.int64)
-        self.goal = np.full(0, -1, np.int64)
-        self.since = np.zeros(0)  # sim time the current goal was given (priority)
-        self.best = np.zeros(0)  # best distance to goal so far, and when it was reached
-        self.best_at = np.zeros(0)
+        self._idx: dict[str, int] = {}
+        ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
+                                                                            "best", "best_at", "hold", "scale")
+        for k in ints:
+            setattr(self, k, np.zeros(0, np.int64))
+        for k in floats:
+            setattr(self, k, np.zeros(0))
+        self.a: np.ndarray  # cell being left (= b at rest)
+        self.b: np.ndarray  # cell being entered
+        self.claim: np.ndarray  # next cell, claimed while still moving (straight on), or -1
+        self.seg_step: np.ndarray  # plan step of the move under way (BIG at rest)
+        self.claim_step: np.ndarray
+        self.goal: np.ndarray
+        self.s: np.ndarray  # progress a → b (and on into claim), cells
+        self.sd: np.ndarray
+        self.sign: np.ndarray  # -1 when reversing into a cell behind
+        self.since: np.ndarray  # sim time the goal was given (PIBT priority)
+        self.best: np.ndarray  # best distance to goal so far (hops), and when
+        self.best_at: np.ndarray
+        self.hold: np.ndarray  # sim time until which a robot is held (delayed) where it is
+        self.scale: np.ndarray  # per-robot speed factor
+        self.released = np.zeros(0, bool)
         self.pending = np.zeros(0, bool)  # a goal given and not reached yet
-        self.leader = np.zeros(0, np.int64)
-        self.delay = np.zeros(0)
-        self.start = np.zeros(0)
-        self.phase = "plan"
+        self._tie = np.zeros(0)
+        self._last: float | None = None
         self.on_reached: Callable[[str, float], None] | None = None
-        self.open_stalls: dict[str, tuple[float, list[str]]] = {}
-        self.stats: dict[str, Any] = {"steps": 0, "reached": 0, "deadlocks": 0, "resolved": 0,
-                                      "longest_deadlock_s": 0.0, "pushes": 0}
-        self._tie = np.random.default_rng(seed).random(0)
+        self.open_stalls: dict[str, tuple[float, list[str], str]] = {}
+        self.stats: dict[str, Any] = {"steps": 0, "moves": 0, "reached": 0, "deadlocks": 0, "resolved": 0,
+                                      "longest_deadlock_s": 0.0, "pushes": 0, "ticks": 0, "cpu_s": 0.0}
 
     # ---- robots and goals --------------------------------------------------------------------------------
 
@@ -82,169 +111,247 @@ class TrafficManager:
         w = self.service.world
         p = w.robot_pose(robot)
         node = self.grid.node_at(p.x, p.y)
-        if node < 0 or math.hypot(*(self.grid.xy[node] - (p.x, p.y))) > 0.2 or node in self.cur.tolist():
+        if node < 0 or math.hypot(*(self.grid.xy[node] - (p.x, p.y))) > 0.2 or self.sched.at[node] >= 0 \
+                or robot in self._idx:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"robot '{robot}' is not at a free traffic cell centre",
                              "spawn it at TrafficManager.grid.xy[node] (one robot per cell)")
+        self._idx[robot] = len(self.names)
         self.names.append(robot)
-        self.cur = np.append(self.cur, node)
-        self.nxt = np.append(self.nxt, node)
-        self.goal = np.append(self.goal, node)
+        self.sched.add(node)
         now = w.time
-        self.since, self.best, self.best_at = (np.append(a, v) for a, v in
-                                               ((self.since, now), (self.best, 0.0), (self.best_at, now)))
-        self.pending = np.append(self.pending, False)
-        self._tie = np.append(self._tie, np.random.default_rng(len(self.names)).random() * 1e-3)
+        row = {"a": node, "b": node, "claim": -1, "seg_step": BIG, "claim_step": BIG, "goal": node, "s": 0.0,
+               "sd": 0.0, "sign": 1.0, "since": now, "best": 0.0, "best_at": now, "hold": -math.inf, "scale": 1.0,
+               "released": True, "pending": False,
+               "_tie": np.random.default_rng(len(self.names)).random() * 1e-3}
+        for k, v in row.items():
+            setattr(self, k, np.append(getattr(self, k), v))
 
     def go(self, robot: str, x: float, y: float) -> int:
         """Send a robot to the free cell nearest (x, y); returns the goal node."""
-        i = self.names.index(robot)
+        i = self._idx[robot]
         node = self.grid.node_at(x, y)
-        self.goal[i] = node if node >= 0 else self.grid.nearest_node(x, y)
-        self.since[i] = self.best_at[i] = self.service.world.time
-        self.best[i] = self.grid.fields.to(int(self.goal[i]))[self.cur[i]]
-        self.pending[i] = self.goal[i] != self.cur[i]
-        if not np.isfinite(self.best[i]):
+        node = node if node >= 0 else self.grid.nearest_node(x, y)
+        d = self.grid.fields.to(node)[self.a[i]]
+        if not np.isfinite(d):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"goal ({x:.2f}, {y:.2f}) is not reachable from "
                              f"'{robot}' on the traffic grid", "pick a goal in the same free region")
-        return int(self.goal[i])
+        self.goal[i] = node
+        self.since[i] = self.best_at[i] = self.service.world.time
+        self.best[i] = d
+        self.pending[i] = node != self.a[i] or self.a[i] != self.b[i]
+        return node
+
+    def hold_robot(self, robot: str, seconds: float) -> None:
+        """Delay a robot where it is (braking at the layer's deceleration) for `seconds` of sim time: a robot
+        stopped for a pick, say. The others keep their order and their distance (the schedule)."""
+        self.hold[self._idx[robot]] = self.service.world.time + seconds
+
+    def set_speed_scale(self, robot: str, factor: float) -> None:
+        """A robot slower (or faster) than the rest: its profile's peak speed times `factor` (0, 1]."""
+        if not 0.0 < factor <= 1.0:
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"speed factor must be in (0, 1], got {factor}")
+        self.scale[self._idx[robot]] = factor
+
+    @property
+    def cells(self) -> np.ndarray:
+        """Per robot, the cell it is in or leaving."""
+        return self.a
 
     # ---- ControlSource -----------------------------------------------------------------------------------
 
     def owner(self, robot: str) -> str | None:
-        return "traffic" if robot in self.names else None
+        return "traffic" if robot in self._idx else None
 
     def active_count(self) -> int:
-        return int(np.count_nonzero(self.goal != self.cur))
+        return int(np.count_nonzero(self.pending | (self.a != self.b)))
 
     def cancel_all(self, reason: str) -> None:
-        self.goal = self.cur.copy()
+        """No new steps are planned; moves already scheduled still run (others depend on them)."""
+        self.goal = self.sched.tail.copy()
+        self.pending[:] = False
 
     def release(self, robot: str, reason: str) -> None:
-        """A robot leaves the layer only between steps, at rest in its cell (else the others' safety breaks)."""
-        if robot in self.names and self.phase == "plan":
-            i = self.names.index(robot)
-            self.names.pop(i)
-            for attr in ("cur", "nxt", "goal", "since", "best", "best_at", "pending", "_tie"):
-                setattr(self, attr, np.delete(getattr(self, attr), i))
+        """A robot leaves the layer only at rest with nothing scheduled (others' safety and order depend on it)."""
+        i = self._idx.get(robot)
+        if i is None or self.a[i] != self.b[i] or self.sched.queue[i] or self.sched.tail[i] != self.a[i]:
+            return
+        self.sched.remove(i, int(self.a[i]))
+        self.names.pop(i)
+        self._idx = {n: k for k, n in enumerate(self.names)}
+        for k in ("a", "b", "claim", "seg_step", "claim_step", "goal", "s", "sd", "sign", "since", "best",
+                  "best_at", "hold", "scale", "released", "pending", "_tie"):
+            setattr(self, k, np.delete(getattr(self, k), i))
 
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
         if not self.names:
             return {}
-        if self.phase == "plan":
+        t0 = time.process_time()
+        out = self._tick(now)
+        self.stats["ticks"] += 1
+        self.stats["cpu_s"] += time.process_time() - t0
+        return out
+
+    def _tick(self, now: float) -> dict[str, tuple[float, float]]:
+        dt = 0.0 if self._last is None else min(max(now - self._last, 0.0), 0.5)
+        self._last = now
+        t = self.service.world.table
+        rows = [t.index(n) for n in self.names]
+        pos = np.column_stack([t.f["x"][rows], t.f["y"][rows]])
+        yaw = t.f["yaw"][rows]
+        xy, sched = self.grid.xy, self.sched
+        # 1. cells left behind are released once the footprint is clear of them (ground truth)
+        moving = self.a != self.b
+        rel = moving & ~self.released & (np.hypot(*(pos - xy[self.a]).T) >= self.gap)
+        for i in np.flatnonzero(rel).tolist():
+            sched.release(i, int(self.a[i]))
+        self.released |= rel
+        # 2. arrivals at the end of the segment
+        near = np.hypot(*(pos - xy[self.b]).T) < ARRIVE_TOL
+        for i in np.flatnonzero(moving & (self.s >= 1.0 - 1e-9) & ((self.claim >= 0) | near)).tolist():
+            self._arrive(i, now)
+        # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
+        #    the one after when it continues straight on (no stop at the centre)
+        queued = sched.head_step < BIG
+        moving = self.a != self.b
+        for i in np.flatnonzero(queued & ~moving).tolist():
+            if sched.can_claim(i):
+                self._start(i, yaw[i])
+        on = np.flatnonzero(queued & moving & (self.claim < 0))
+        if on.size:
+            nv = np.fromiter((sched.queue[i][0][0] for i in on.tolist()), np.int64, on.size)
+            g, a, b = self.grid.ij, self.a[on], self.b[on]
+            straight = np.all(g[nv] - g[b] == g[b] - g[a], axis=1)
+            for i in on[straight].tolist():
+                if sched.can_claim(i):
+                    self.claim[i], self.claim_step[i] = sched.claim(i)
+        # 4. profiles and commands (numpy over all robots)
+        v, w = self._drive(now, dt, pos, yaw)
+        # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
+        #    queued already sit this step out (neither moved nor pushed: bounded look-ahead), as in Causal-PIBT
+        #    only robots ready to act take part, so a slow robot holds up only the robots that need its cells.
+        want = (sched.head_step >= BIG) & (sched.tail != self.goal)
+        if want.any():
             self._plan(now)
-        f, rows = self.service.world.table.f, [self.service.world.table.index(n) for n in self.names]
-        x, y, yaw = f["x"][rows], f["y"][rows], f["yaw"][rows]
-        c, n = self.grid.xy[self.cur], self.grid.xy[self.nxt]
-        moving = self.nxt != self.cur
-        d = n - c
-        heading = np.where(moving, np.arctan2(d[:, 1], d[:, 0]), yaw)
-        err = wrap_angles(heading - yaw)
-        back = np.abs(err) > math.pi / 2  # a cell behind: drive there in reverse rather than turn round
-        err = np.where(back, wrap_angles(err + math.pi), err)
-        sign = np.where(back, -1.0, 1.0)
-        if self.phase == "move":
-            # Each mover starts once it faces its cell and its leader (the robot leaving that cell) has started
-            # (straight on: with it; turning away: half a traverse later). Leaders form a forest (pibt.py).
-            waiting = moving & ~np.isfinite(self.start)
-            for i in np.flatnonzero(waiting & (np.abs(err) < TURN_TOL)).tolist():
-                k = int(self.leader[i])
-                if k < 0 or (np.isfinite(self.start[k]) and now >= self.start[k] + self.delay[i] * self.traverse_s):
-                    self.start[i] = now
-        started = moving & np.isfinite(self.start)
-        s, ds = self._profile(np.where(started, now - np.where(started, self.start, now), 0.0))
-        ref = c + s[:, None] * d
-        unit = d / self.grid.cell
-        along = (ref[:, 0] - x) * unit[:, 0] + (ref[:, 1] - y) * unit[:, 1]
-        cross = -(ref[:, 0] - x) * unit[:, 1] + (ref[:, 1] - y) * unit[:, 0]
-        v = np.where(started, sign * (ds * self.grid.cell + 2.0 * along), 0.0)
-        w = np.where(moving, np.clip(4.0 * err + 3.0 * cross * started, -self.max_w, self.max_w), 0.0)
-        arrived = np.hypot(n[:, 0] - x, n[:, 1] - y) < ARRIVE_TOL
-        done = ~moving | (started & (now >= self.start + self.traverse_s) & arrived)
-        if done.all():  # never plan from a cell a robot has not reached
-            self.cur = self.nxt.copy()
-            self.phase = "plan"
-            v[:], w[:] = 0.0, 0.0
-            self._arrivals(now)
-        return {name: (float(a), float(b)) for name, a, b in zip(self.names, v, w, strict=True)}
-
-    def _profile(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Share of the cell travelled and its rate (1/s) at time `tau` into the traverse (trapezoid)."""
-        a, vp, T, L = self.accel, self.peak, self.traverse_s, self.grid.cell
-        ramp = vp / a
-        tau = np.clip(tau, 0.0, T)
-        dist = np.where(tau < ramp, 0.5 * a * tau ** 2,
-                        np.where(tau < T - ramp, 0.5 * vp * ramp + vp * (tau - ramp), L - 0.5 * a * (T - tau) ** 2))
-        vel = np.where(tau < ramp, a * tau, np.where(tau < T - ramp, vp, a * (T - tau)))
-        return np.clip(dist / L, 0.0, 1.0), vel / L
-
-    # ---- planning and bookkeeping ------------------------------------------------------------------------
-
-    def _plan(self, now: float) -> None:
-        priority = (now - self.since) * (self.goal != self.cur) + self._tie
-        self.nxt = np.asarray(self.pibt.step(self.cur.tolist(), self.goal.tolist(), priority), np.int64)
-        self.stats["steps"] += 1
-        self.stats["pushes"] += len(self.pibt.pushes)
-        self.leader, self.delay = self._leaders()
-        self.start = np.full(len(self.cur), np.inf)
         self._stalls(now)
-        if np.any(self.nxt != self.cur):
-            self.phase = "move"
+        return dict(zip(self.names, zip(v.tolist(), w.tolist(), strict=True), strict=True))
 
-    def _leaders(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per mover, the robot leaving the cell it enters (-1: none) and the start delay behind it, in
-        traverses: 0 straight on, 0.5 when the leader turns away."""
-        occ = {int(v): i for i, v in enumerate(self.cur.tolist())}
-        leader = np.full(len(self.cur), -1, np.int64)
-        delay = np.zeros(len(self.cur))
-        for i in np.flatnonzero(self.nxt != self.cur).tolist():
-            k = occ.get(int(self.nxt[i]))
-            if k is not None and k != i:
-                leader[i] = k
-                same = np.array_equal(self.grid.xy[self.nxt[k]] - self.grid.xy[self.cur[k]],
-                                      self.grid.xy[self.nxt[i]] - self.grid.xy[self.cur[i]])
-                delay[i] = 0.0 if same else 0.5
-        return leader, delay
+    def _drive(self, now: float, dt: float, pos: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xy, cell, sched = self.grid.xy, self.grid.cell, self.sched
+        moving = self.a != self.b
+        seg = xy[self.b] - xy[self.a]
+        unit = seg / cell
+        err = np.where(moving, wrap_angles(np.arctan2(seg[:, 1], seg[:, 0]) + (self.sign < 0) * math.pi - yaw), 0.0)
+        rolling = moving & ((self.s > 0.0) | (self.sd > 0.0))
+        go = moving & (rolling | (np.abs(err) < TURN_TOL)) & (self.hold <= now)
+        stop = np.where(self.claim >= 0, 2.0, 1.0)
+        me = np.arange(len(self.names))
+        for lead in (sched.leaving[self.b], np.where(self.claim >= 0, sched.leaving[self.claim], -1)):
+            ok = (lead >= 0) & (lead != me) & moving
+            if ok.any():
+                cap = leader_cap(xy[self.a[ok]], seg[ok], pos[lead[ok]], self.gap)
+                stop[ok] = np.minimum(stop[ok], cap)
+        self.s, self.sd = advance(self.s, self.sd, stop, go, self.peak * self.scale, self.accel, dt)
+        ref = xy[self.a] + self.s[:, None] * seg
+        e = ref - pos
+        along = e[:, 0] * unit[:, 0] + e[:, 1] * unit[:, 1]
+        cross = -e[:, 0] * unit[:, 1] + e[:, 1] * unit[:, 0]
+        v = np.where(rolling | go, self.sign * (self.sd * cell + 2.0 * np.clip(along, -0.3, 0.1)), 0.0)
+        w = np.where(moving, np.clip(4.0 * err + 3.0 * cross * rolling, -self.max_w, self.max_w), 0.0)
+        return v, w
 
-    def _arrivals(self, now: float) -> None:
-        for i in np.flatnonzero((self.cur == self.goal) & self.pending).tolist():
-            self.pending[i] = False
-            self.stats["reached"] += 1
-            if self.on_reached is not None:
-                self.on_reached(self.names[i], now)
+    # ---- events of one robot (O(changed)) ----------------------------------------------------------------
 
-    def _stalls(self, now: float) -> None:
-        """Deadlock events: robots whose distance to goal has not improved for stall_s, and who is in the way."""
-        dist = np.array([self.grid.fields.to(int(g))[c] for g, c in zip(self.goal, self.nxt, strict=True)])
-        better = (dist < self.best) | (dist == 0)  # at its goal counts as progress (it may be pushed off later)
-        self.best = np.where(better, dist, self.best)
-        self.best_at = np.where(better, now, self.best_at)
-        svc = self.service
-        for i in np.flatnonzero(better).tolist():
-            name = self.names[i]
+    def _start(self, i: int, yaw: float) -> None:
+        v, step = self.sched.claim(i)
+        self.sched.depart(i, int(self.a[i]))
+        self.b[i], self.seg_step[i] = v, step
+        self.s[i] = self.sd[i] = 0.0
+        self.released[i] = False
+        d = self.grid.xy[v] - self.grid.xy[self.a[i]]
+        turn = (math.atan2(d[1], d[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
+        self.sign[i] = -1.0 if abs(turn) > math.pi / 2 else 1.0
+        self.stats["moves"] += 1
+
+    def _arrive(self, i: int, now: float) -> None:
+        sched = self.sched
+        if not self.released[i]:
+            sched.release(i, int(self.a[i]))
+        if self.claim[i] >= 0:  # straight on into the cell claimed on the way
+            sched.depart(i, int(self.b[i]))
+            self.a[i], self.b[i], self.claim[i] = self.b[i], self.claim[i], -1
+            self.seg_step[i], self.claim_step[i] = self.claim_step[i], BIG
+            self.s[i] -= 1.0
+            self.released[i] = False
+            self.stats["moves"] += 1
+        else:
+            self.a[i] = self.b[i]
+            self.s[i] = self.sd[i] = 0.0
+            self.seg_step[i] = BIG
+            self.released[i] = True
+        self._progress(i, now)
+
+    def _progress(self, i: int, now: float) -> None:
+        name = self.names[i]
+        d = float(self.grid.fields.to(int(self.goal[i]))[self.a[i]])
+        if d < self.best[i] or d == 0:
+            self.best[i], self.best_at[i] = d, now
             if name in self.open_stalls:
-                start, others = self.open_stalls.pop(name)
+                start, others, why = self.open_stalls.pop(name)
                 took = now - start + self.stall_s
                 self.stats["resolved"] += 1
                 self.stats["longest_deadlock_s"] = max(self.stats["longest_deadlock_s"], took)
-                svc.events.publish(now, "deadlock_resolved", (name, *others), f"{name} moving towards its goal "
-                                   f"again after {took:.1f} s: priority inheritance (PIBT) cleared the way",
-                                   strategy="pibt_priority_inheritance", duration=took)
-        stuck = (now - self.best_at >= self.stall_s) & (self.goal != self.cur)
-        occ = {int(v): i for i, v in enumerate(self.cur.tolist())}
+                self.service.events.publish(
+                    now, "deadlock_resolved", (name, *others), f"{name} moving towards its goal again after "
+                    f"{took:.1f} s: {why}", strategy="adg_pibt", duration=took)
+        if self.pending[i] and self.a[i] == self.goal[i]:  # there, even if the plan moves it on (pushed)
+            self.pending[i] = False
+            self.stats["reached"] += 1
+            if self.on_reached is not None:
+                self.on_reached(name, now)
+
+    def _plan(self, now: float) -> None:
+        tail = self.sched.tail
+        since = self.best_at if self.priority == "since_progress" else self.since
+        priority = (now - since) * (self.goal != tail) + self._tie
+        frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
+        ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
+        prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
+        nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),
+                         np.int64)
+        self.sched.append(nxt)
+        self.stats["steps"] += 1
+        self.stats["pushes"] += len(self.pibt.pushes)
+
+    def _stalls(self, now: float) -> None:
+        """Deadlock events: robots whose distance to goal has not improved for stall_s, and who they wait for."""
+        stuck = self.pending & (now - self.best_at >= self.stall_s)
+        if not stuck.any():
+            return
         for i in np.flatnonzero(stuck).tolist():
             name = self.names[i]
             if name in self.open_stalls:
                 continue
-            field = self.grid.fields.to(int(self.goal[i]))
-            ahead = [v for v in self.grid.neighbours[int(self.cur[i])] if field[v] < field[self.cur[i]]]
-            others = sorted({self.names[occ[v]] for v in ahead if v in occ})
-            self.open_stalls[name] = (now, others)
+            blockers = self.sched.blockers(i)
+            if blockers:
+                why = (f"waited in the action-dependency graph for {', '.join(self.names[k] for k in blockers)} "
+                       "to clear its next cell (acyclic: each of them moves on without waiting for it)")
+            else:
+                field = self.grid.fields.to(int(self.goal[i]))
+                here = int(self.sched.tail[i])
+                ahead = [v for v in self.grid.neighbours[here] if field[v] < field[here]]
+                blockers = sorted({int(k) for k in self.sched.at[ahead].tolist() if k >= 0 and k != i}) if ahead \
+                    else []
+                why = ("its priority grew until PIBT's priority inheritance pushed "
+                       f"{', '.join(self.names[k] for k in blockers) or 'the robots ahead'} aside")
+            others = [self.names[k] for k in blockers]
+            self.open_stalls[name] = (now, others, why)
             self.stats["deadlocks"] += 1
-            svc.events.publish(now, "deadlock", (name, *others), f"{name} has not come closer to its goal for "
-                               f"{self.stall_s:g} s; blocked by {', '.join(others) or 'nobody (waiting its turn)'}; "
-                               "resolution: its priority grows until PIBT pushes the others aside",
-                               strategy="pibt_priority_inheritance")
+            self.service.events.publish(
+                now, "deadlock", (name, *others), f"{name} has not come closer to its goal for {self.stall_s:g} s; "
+                f"waiting for {', '.join(others) or 'its turn'}; resolution: the schedule is acyclic and its "
+                "priority grows, so PIBT and the ADG free it", strategy="adg_pibt")
 
     def describe(self) -> dict[str, Any]:
         return {"robots": len(self.names), "cells": len(self.grid), "cell_m": self.grid.cell,
+                "window": self.window, "priority": self.priority, "plan_step": self.sched.step,
                 "fields_computed": self.grid.fields.computed, "open_deadlocks": len(self.open_stalls), **self.stats}

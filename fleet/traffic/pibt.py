@@ -4,13 +4,16 @@ Every agent, highest priority first, takes the free neighbouring node (or its ow
 shared cost-to-go field. An agent whose wanted node is occupied by an undecided agent lends that agent its
 priority, and the lower agent must move out of the way (never into the pusher's node: no swaps); if it cannot,
 the pusher backtracks and tries its next node. Vertex and swap conflicts are impossible by construction, and
-with priorities that grow while an agent is away from its goal, every agent reaches its goal in finite time on
-graphs where adjacent nodes lie on a common cycle (the lifelong-MAPF property the traffic layer relies on).
+with priorities that grow while an agent is away from its goal, the highest-priority agent always gets closer,
+so every agent reaches its goal in finite time on graphs where adjacent nodes lie on a common cycle (the
+lifelong-MAPF property the traffic layer relies on).
 
-One change for real robots: an agent does not follow another around a closed loop of moves (a rotation), so
-a robot entering a node another robot is vacating always has a leader that started first (traffic/motion.py
-times the followers); rotations are not needed for the reachability argument (a push chain ends at a free
-node, never in a loop).
+Changes for real robots (fleet/traffic/manager.py executes the steps asynchronously):
+- an agent does not follow another around a closed loop of moves (a rotation): each robot would wait for the
+  one ahead to clear its cell. The reachability argument above assumes rotations are allowed, so in packed
+  corners the guarantee is weaker (a push chain that would close a loop must end elsewhere or wait);
+- `frozen` agents (robots with enough moves queued already) neither move nor get pushed this step;
+- among nodes equally close to the goal, the one straight on comes first (a turn costs a stop).
 """
 
 from __future__ import annotations
@@ -27,13 +30,21 @@ class PIBT:
         self.rng = np.random.default_rng(seed)
         self.pushes: list[tuple[int, int]] = []  # (pusher, pushed) of the last step: priority inheritance
 
-    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray) -> list[int]:
-        """The next node of every agent (its own node when it waits)."""
+    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
+             frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
+        """The next node of every agent (its own node when it waits). `frozen` agents stay where they are and
+        cannot be pushed (the traffic layer's robots with enough moves queued already): obstacles this step.
+        `prefer`: per agent, the node that goes straight on (-1: none); among nodes equally close to the goal it
+        comes first, so robots do not zig-zag (every turn costs a real robot a stop and a turn in place)."""
         self.cur, self.goals = list(cur), list(goals)
+        self.prefer = list(prefer) if prefer is not None else [-1] * len(self.cur)
         self.occ = {v: i for i, v in enumerate(self.cur)}
         self.nxt = [-1] * len(self.cur)
         self.reserved: dict[int, int] = {}
         self.pushes = []
+        for i in frozen:
+            self.nxt[i] = self.cur[i]
+            self.reserved[self.cur[i]] = i
         for i in np.argsort(-priority, kind="stable").tolist():
             if self.nxt[i] < 0:
                 self._pibt(i, None)
@@ -43,7 +54,8 @@ class PIBT:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
-        order = np.lexsort((self.rng.random(len(cands)), dist[cands]))  # nearest to goal, random ties
+        straight = np.array([v != self.prefer[i] for v in cands])
+        order = np.lexsort((self.rng.random(len(cands)), straight, dist[cands]))  # nearest, straight on, random
         for v in (cands[k] for k in order):
             if v in self.reserved or (pusher is not None and v == self.cur[pusher]):
                 continue

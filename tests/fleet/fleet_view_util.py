@@ -117,6 +117,9 @@ class HandView:
         return make_navigator(NavigatorConfig.model_validate(overrides or {}), costmap=self.costmap(robot),
                               spec=RobotSpec())
 
+    def traffic_layer(self, enable: Mapping[str, Any] | None = None) -> Any:
+        return None  # a hand-built view has no traffic layer
+
     # ---- command sink ---------------------------------------------------------------------------------
 
     def publish(self, stamp: float, kind: str, robots: Iterable[str] = (), message: str = "", **data: Any) -> None:

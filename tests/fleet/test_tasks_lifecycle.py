@@ -20,7 +20,7 @@ def arena():
 def test_all_task_types_are_registered():
     assert set(task_types()) >= {"go_to", "follow_waypoints", "cover_area", "follow_robot", "dock_and_charge",
                                  "return_home", "wait", "stop"}
-    assert allocatable_types() == ["cover_area", "follow_waypoints", "go_to"]
+    assert allocatable_types() == ["cover_area", "follow_waypoints", "go_to", "traffic_go"]
 
 
 def test_task_for_an_unknown_robot_fails_with_the_list_of_robots(arena):

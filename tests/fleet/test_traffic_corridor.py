@@ -27,10 +27,13 @@ class Naive:
         self.tm = tm
         self.pushes: list[tuple[int, int]] = []
 
-    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray) -> list[int]:
+    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray, frozen: Sequence[int] = (),
+             prefer: Sequence[int] | None = None) -> list[int]:
         occupied, nxt = set(cur), list(cur)
         taken = set(cur)
         for i in np.argsort(-priority).tolist():
+            if i in frozen:
+                continue
             field = self.tm.grid.fields.to(goals[i])
             best = min([cur[i], *self.tm.grid.neighbours[cur[i]]], key=lambda v: field[v])
             if best != cur[i] and best not in occupied and best not in taken:

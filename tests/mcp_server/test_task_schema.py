@@ -24,7 +24,8 @@ async def test_the_task_spec_schema_is_a_union_on_type_with_each_types_params(cl
     spec = schemas["queue_task"]["properties"]["spec"]
     items = next(a for a in schemas["assign_tasks"]["properties"]["tasks"]["anyOf"] if a.get("type") == "array")
     assert items["items"] == {k: v for k, v in spec.items() if k != "description"}  # one definition for both
-    assert spec["properties"]["type"]["enum"] == allocatable_types() == ["cover_area", "follow_waypoints", "go_to"]
+    assert spec["properties"]["type"]["enum"] == allocatable_types() == ["cover_area", "follow_waypoints", "go_to",
+                                                                         "traffic_go"]
     assert spec["discriminator"] == {"propertyName": "type"} and spec["additionalProperties"] is False
     assert {"priority", "earliest_start", "deadline", "id"} <= set(spec["properties"])
     branches = {b["properties"]["type"]["const"]: b["properties"]["params"] for b in spec["oneOf"]}

@@ -45,8 +45,9 @@ ROOT = Path(__file__).resolve().parent.parent
 NAVIGATION = {"controller": {"type": "pure_pursuit", "desired_linear_vel": 0.6},
               "planner": {"type": "guided_theta_star"}}
 LIDAR = {"beams": 90, "rate_hz": 5.0}  # the navigators' reactive layer still sees obstacles; 8x fewer rays
-RULES: dict[str, dict[str, Any]] = {"old": {"urgent_s": None, "yield_aside": False},
-                                    "new": {"urgent_s": 12.0, "yield_aside": True}}  # traffic layer: waits
+RULES: dict[str, dict[str, Any]] = {  # traffic layer: the rules against long waits, off (old) and on (new)
+    "old": {"urgent_s": None, "yield_aside": False, "highway": 1.0, "lane_cost": 1.0},
+    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 8.0, "lane_cost": 3.0}}
 LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
 LIDAR_OFF = {"enabled": False}
 
@@ -162,8 +163,8 @@ def main() -> None:
     ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
                     help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
     ap.add_argument("--rule", nargs="*", choices=tuple(RULES), default=["new"],
-                    help="traffic layer: waits rule(s), one run each: old = no aging, a pushed robot picks any "
-                         "equally good node; new = aging (urgent after 12 s without progress) + yield aside")
+                    help="traffic layer: rules against long waits, one run each: old = none; new = lanes "
+                         "(highway 8, lane_cost 3), aging (urgent after 12 s without progress), yield aside")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -183,7 +184,8 @@ def main() -> None:
 
                 tcols = ("robots", "avoidance", "done", "done_per_min", "in_progress", "robot_collisions",
                          "obstacle_hits", "world_contacts", "closest_robot_gap_m", "closest_obstacle_gap_m",
-                         "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "fields_computed",
+                         "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "longest_open_s",
+                         "fields_computed",
                          "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:

@@ -54,7 +54,7 @@ class TrafficManager:
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
                  stall_s: float = 10.0, window: int = 2, lane_cost: float = 3.0,
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
-                 yield_aside: bool = True, highway: float = 8.0, record: bool = False) -> None:
+                 yield_aside: bool = True, highway: float = 4.0, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius

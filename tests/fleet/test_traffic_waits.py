@@ -10,6 +10,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from fleet.traffic import PIBT
+from fleet.traffic.lanes import DirectedFields, highways
 from planning.distance_fields import DistanceFields
 
 LENGTH = 12  # aisle cells 0..11 along x; pockets above cells 2, 5 and 8 (nodes LENGTH + k)
@@ -64,3 +65,20 @@ def test_without_yield_aside_it_is_pushed_back_along_the_aisle() -> None:
     runs = [longest_wait(False, seed) for seed in range(12)]
     assert any(w > 5 and arrived for w, _, arrived in runs), runs
     assert any(not arrived and cells[-1] == 0 for _, cells, arrived in runs), runs
+
+
+def test_highway_costs_follow_the_lanes() -> None:
+    """lanes.highways on a 3 × 2 grid: even rows run +x, odd rows -x, even columns +y, odd columns -y; a move
+    against its lane costs `against` times its cost, one with it is unchanged."""
+    ij = np.array([[x, y] for x in range(3) for y in range(2)])  # node = 2x + y
+    edges = [(a, b) for a in range(6) for b in range(6) if np.abs(ij[a] - ij[b]).sum() == 1]
+    adj = csr_matrix((np.ones(len(edges)), ([a for a, _ in edges], [b for _, b in edges])), shape=(6, 6))
+    out = highways(adj, ij, 4.0).toarray()
+    assert out[0, 2] == 1.0 and out[2, 0] == 4.0  # row y=0 runs +x
+    assert out[3, 1] == 1.0 and out[1, 3] == 4.0  # row y=1 runs -x
+    assert out[0, 1] == 1.0 and out[1, 0] == 4.0  # column x=0 runs +y
+    assert out[3, 2] == 1.0 and out[2, 3] == 4.0  # column x=1 runs -y
+    fields = DirectedFields(csr_matrix(out))
+    # to node 0 from node 4 (x=2, y=0): against row 0 twice (8), or 4 → 5 (+y, 1), 5 → 3 → 1 (-x, 2),
+    # 1 → 0 (-y on column 0: against, 4) = 7
+    assert fields.to(0)[4] == 7.0

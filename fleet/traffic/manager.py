@@ -41,7 +41,6 @@ if TYPE_CHECKING:
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
-URGENT_GAIN = 3.0  # cells: an urgent robot stays urgent until it is this much closer than when it became urgent
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -87,7 +86,7 @@ class TrafficManager:
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
                                                                             "best", "best_at", "hold", "scale",
-                                                                            "urgent_at", "urgent_to")
+                                                                            "urgent_at")
         for k in ints:
             setattr(self, k, np.zeros(0, np.int64))
         for k in floats:
@@ -107,7 +106,6 @@ class TrafficManager:
         self.hold: np.ndarray  # sim time until which a robot is held (delayed) where it is
         self.scale: np.ndarray  # per-robot speed factor
         self.urgent_at: np.ndarray  # sim time a robot became urgent (waited urgent_s), +inf when it is not
-        self.urgent_to: np.ndarray  # the distance to goal (hops) at which it stops being urgent
         self.released = np.zeros(0, bool)
         self.pending = np.zeros(0, bool)  # a goal given and not reached yet
         self._tie = np.zeros(0)
@@ -134,7 +132,7 @@ class TrafficManager:
         now = w.time
         row = {"a": node, "b": node, "claim": -1, "seg_step": BIG, "claim_step": BIG, "goal": node, "s": 0.0,
                "sd": 0.0, "sign": 1.0, "since": now, "best": 0.0, "best_at": now, "hold": -math.inf, "scale": 1.0,
-               "urgent_at": math.inf, "urgent_to": -math.inf,
+               "urgent_at": math.inf,
                "released": True, "pending": False,
                "_tie": np.random.default_rng(len(self.names)).random() * 1e-3}
         for k, v in row.items():
@@ -194,7 +192,7 @@ class TrafficManager:
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
         for k in ("a", "b", "claim", "seg_step", "claim_step", "goal", "s", "sd", "sign", "since", "best",
-                  "best_at", "hold", "scale", "urgent_at", "urgent_to", "released", "pending", "_tie"):
+                  "best_at", "hold", "scale", "urgent_at", "released", "pending", "_tie"):
             setattr(self, k, np.delete(getattr(self, k), i))
 
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
@@ -310,8 +308,6 @@ class TrafficManager:
         d = float(self.grid.fields.to(int(self.goal[i]))[self.a[i]])
         if d < self.best[i] or d == 0:
             self.best[i], self.best_at[i] = d, now
-            if d <= self.urgent_to[i]:
-                self.urgent_at[i] = math.inf
             if name in self.open_stalls:
                 start, others, why = self.open_stalls.pop(name)
                 took = now - start + self.stall_s
@@ -337,7 +333,6 @@ class TrafficManager:
             # pushing each other back as their priorities cross.
             late = self.pending & np.isinf(self.urgent_at) & (now - self.best_at >= self.urgent_s)
             self.urgent_at[late] = now
-            self.urgent_to[late] = self.best[late] - URGENT_GAIN
             urgent = np.isfinite(self.urgent_at)
             priority = np.where(urgent, URGENT + (now - self.urgent_at), priority)
         frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()

@@ -15,8 +15,11 @@ whose cells it needs, so slow or delayed robots hold up only those behind them.
 Waits: a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it and the
 robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
 it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
-edge lies on a cycle, but robots can be pushed back and forth for a long time in one-lane aisles, and in dead
-ends PIBT can oscillate (pibt.py, docs/fleet.md).
+edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
+oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
+column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
+that are not urgent until it reaches its goal) and yielding aside (pibt.py: a pushed robot prefers a node off
+its pusher's way).
 """
 
 from __future__ import annotations
@@ -311,6 +314,9 @@ class TrafficManager:
             if name in self.open_stalls:
                 start, others, why = self.open_stalls.pop(name)
                 took = now - start + self.stall_s
+                if math.isfinite(self.urgent_at[i]):
+                    why += (f"; urgent (top priority, aging) since it had waited {self.urgent_s:g} s, "
+                            f"{now - self.urgent_at[i]:.1f} s ago")
                 self.stats["resolved"] += 1
                 self.stats["longest_deadlock_s"] = max(self.stats["longest_deadlock_s"], took)
                 self.service.events.publish(

@@ -13,7 +13,10 @@ Changes for real robots (fleet/traffic/manager.py executes the steps asynchronou
   one ahead to clear its cell. The reachability argument above assumes rotations are allowed, so in packed
   corners the guarantee is weaker (a push chain that would close a loop must end elsewhere or wait);
 - `frozen` agents (robots with enough moves queued already) neither move nor get pushed this step;
-- among nodes equally close to the goal, the one straight on comes first (a turn costs a stop).
+- among nodes equally close to the goal, the one straight on comes first (a turn costs a stop);
+- `yield_aside`: a pushed agent, among nodes equally close to its goal, takes one its pusher does not need next
+  (no closer to the pusher's goal than its own node), so an agent met head-on steps aside rather than
+  retreating before its pusher node after node.
 """
 
 from __future__ import annotations

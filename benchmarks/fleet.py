@@ -21,6 +21,8 @@ guided Theta* planner, regulated pure pursuit at 0.6 m/s, navigator reactive lay
         --avoidance orca --baseline-minutes 2     # the traffic layer with lidar on and off, then ORCA
     .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 3 --traffic-only --traffic-lidar off \
         --priority goal_age since_progress        # the two PIBT priority rules, same run
+    .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 10 --traffic-only --traffic-lidar off \
+        --rule old new      # without and with the rules against long waits (lanes, aging, yield aside), same run
 """
 
 from __future__ import annotations

@@ -28,12 +28,14 @@ TOUCH_M = 1e-3  # footprint circles closer than this count as touching
 
 def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 1.0, speed: float = 0.8,
                 physics_hz: float = 50.0, window: int = 2, lidar: str = "360 beams 10 Hz",
-                priority: str = "goal_age") -> dict[str, Any]:
+                priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
+                highway: float = 4.0, lane_cost: float = 3.0) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
         rng = np.random.default_rng(seed)
-        tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed, window=window, priority=priority)
+        tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed, window=window, priority=priority,
+                             urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -105,13 +107,16 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         d = tm.describe()
         in_progress = int(np.count_nonzero(tm.pending))
-        return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}), lidar {lidar}", "sim_min": minutes,
+        return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
+                f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}), lidar {lidar}",
+                "sim_min": minutes,
                 "done": len(done),
                 "done_per_min": len(done) / minutes, "failed": 0, "in_progress": in_progress,
                 "robot_collisions": episodes["robot"], "obstacle_hits": episodes["obstacle"],
                 "closest_robot_gap_m": closest["robot"], "closest_obstacle_gap_m": closest["obstacle"],
                 "deadlocks": d["deadlocks"], "resolved": d["resolved"], "unresolved": d["open_deadlocks"],
-                "longest_deadlock_s": d["longest_deadlock_s"], "fields_computed": d["fields_computed"],
+                "longest_deadlock_s": d["longest_deadlock_s"],
+                "longest_open_s": d["longest_open_deadlock_s"], "fields_computed": d["fields_computed"],
                 "world_contacts": episodes["world_contacts"],
                 "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
                 "rtf": svc.world.time / wall,

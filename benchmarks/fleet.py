@@ -21,11 +21,14 @@ guided Theta* planner, regulated pure pursuit at 0.6 m/s, navigator reactive lay
         --avoidance orca --baseline-minutes 2     # the traffic layer with lidar on and off, then ORCA
     .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 3 --traffic-only --traffic-lidar off \
         --priority goal_age since_progress        # the two PIBT priority rules, same run
+    .venv/bin/python benchmarks/fleet.py --robots 100 --minutes 10 --traffic-only --traffic-lidar off \
+        --rule old new      # without and with the rules against long waits (lanes, aging, yield aside), same run
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import sys
 import tempfile
@@ -44,6 +47,9 @@ ROOT = Path(__file__).resolve().parent.parent
 NAVIGATION = {"controller": {"type": "pure_pursuit", "desired_linear_vel": 0.6},
               "planner": {"type": "guided_theta_star"}}
 LIDAR = {"beams": 90, "rate_hz": 5.0}  # the navigators' reactive layer still sees obstacles; 8x fewer rays
+RULES: dict[str, dict[str, Any]] = {  # traffic layer: the rules against long waits, off (old) and on (new)
+    "old": {"urgent_s": None, "yield_aside": False, "highway": 1.0, "lane_cost": 1.0},
+    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0}}
 LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
 LIDAR_OFF = {"enabled": False}
 
@@ -158,6 +164,9 @@ def main() -> None:
     ap.add_argument("--window", type=int, default=2, help="traffic layer: moves a robot may have queued (default 2)")
     ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
                     help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
+    ap.add_argument("--rule", nargs="*", choices=tuple(RULES), default=["new"],
+                    help="traffic layer: rules against long waits, one run each: old = none; new = lanes "
+                         "(highway 4, lane_cost 3), aging (urgent after 12 s without progress), yield aside")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -177,12 +186,14 @@ def main() -> None:
 
                 tcols = ("robots", "avoidance", "done", "done_per_min", "in_progress", "robot_collisions",
                          "obstacle_hits", "world_contacts", "closest_robot_gap_m", "closest_obstacle_gap_m",
-                         "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "fields_computed",
+                         "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "longest_open_s",
+                         "fields_computed",
                          "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    for prio in a.priority:
+                    for prio, rule in itertools.product(a.priority, a.rule):
                         r = run_traffic(n, minutes, a.seed, models[lid], window=a.window, priority=prio,
+                                        **RULES[rule],
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.sparse import csr_matrix
 
+from fleet.traffic.lanes import DirectedFields, highways
 from planning.distance_fields import DistanceFields
 from sim.errors import ErrorCode, FleetError
 
@@ -21,7 +22,7 @@ class TrafficGrid:
     where the straight segment between centres clears them too."""
 
     def __init__(self, clearance: StaticClearance, bounds: tuple[float, float, float, float], cell: float,
-                 radius: float, margin: float = 0.05, lane_cost: float = 1.0) -> None:
+                 radius: float, margin: float = 0.05, lane_cost: float = 1.0, highway: float = 1.0) -> None:
         if not (math.isfinite(cell) and cell > 0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"cell must be > 0 m, got {cell}")
         self.cell = cell
@@ -59,9 +60,19 @@ class TrafficGrid:
         deg = np.bincount(r, minlength=n)
         cost = np.where(deg <= 2, lane_cost, 1.0)
         self.adjacency = csr_matrix((0.5 * (cost[r] + cost[c]), (r, c)), shape=(n, n))
-        self.neighbours = [self.adjacency.indices[self.adjacency.indptr[i]:self.adjacency.indptr[i + 1]].tolist()
-                           for i in range(n)]
-        self.fields = DistanceFields(self.adjacency)
+        self.neighbours = self._out(self.adjacency)
+        self.fields: DistanceFields | DirectedFields
+        if highway != 1.0:  # moves against a lane's direction cost `highway` times more (lanes.py)
+            self.adjacency = highways(self.adjacency, self.ij, highway)
+            self.fields = DirectedFields(self.adjacency)
+        else:
+            self.fields = DistanceFields(self.adjacency)
+
+    @staticmethod
+    def _out(adjacency: csr_matrix) -> list[list[int]]:
+        """Per node, the nodes an edge leads to from it."""
+        return [adjacency.indices[adjacency.indptr[i]:adjacency.indptr[i + 1]].tolist()
+                for i in range(adjacency.shape[0])]
 
     def __len__(self) -> int:
         return len(self.cells)

@@ -13,7 +13,8 @@ if TYPE_CHECKING:
     from fleet.service import FleetService
     from fleet.traffic.manager import TrafficManager
 
-SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed", "priority")
+SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed", "priority", "urgent_s", "yield_aside",
+            "highway")
 
 
 def traffic_layer(service: FleetService) -> TrafficManager | None:

@@ -15,8 +15,11 @@ whose cells it needs, so slow or delayed robots hold up only those behind them.
 Waits: a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it and the
 robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
 it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
-edge lies on a cycle, but robots can be pushed back and forth for a long time in one-lane aisles, and in dead
-ends PIBT can oscillate (pibt.py, docs/fleet.md).
+edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
+oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
+column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
+that are not urgent until it reaches its goal) and yielding aside (pibt.py: a pushed robot prefers a node off
+its pusher's way).
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ if TYPE_CHECKING:
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
+URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
 
@@ -50,8 +54,9 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 1.0,
-                 priority: Literal["goal_age", "since_progress"] = "goal_age", record: bool = False) -> None:
+                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 3.0,
+                 priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
+                 yield_aside: bool = True, highway: float = 4.0, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -65,18 +70,26 @@ class TrafficManager:
         if window < 1:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic window must be ≥ 1 step, got {window}")
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
-                                lane_cost=lane_cost)
+                                lane_cost=lane_cost, highway=highway)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.sched = Schedule(len(self.grid), record)
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
         self.peak = speed / cell  # cells/s
         self.max_w = min(2.0, spec.limits.max_angular)
         self.stall_s = stall_s
+        if urgent_s is not None and not (math.isfinite(urgent_s) and urgent_s > 0):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_s must be > 0 s (or None: off), got "
+                             f"{urgent_s}")
+        self.urgent_s = urgent_s
+        if not (math.isfinite(highway) and highway >= 1.0):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic highway must be ≥ 1 (1: no lanes), got {highway}")
+        self.pibt.yield_aside = yield_aside
         self.window = window
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
-                                                                            "best", "best_at", "hold", "scale")
+                                                                            "best", "best_at", "hold", "scale",
+                                                                            "urgent_at")
         for k in ints:
             setattr(self, k, np.zeros(0, np.int64))
         for k in floats:
@@ -95,6 +108,7 @@ class TrafficManager:
         self.best_at: np.ndarray
         self.hold: np.ndarray  # sim time until which a robot is held (delayed) where it is
         self.scale: np.ndarray  # per-robot speed factor
+        self.urgent_at: np.ndarray  # sim time a robot became urgent (waited urgent_s), +inf when it is not
         self.released = np.zeros(0, bool)
         self.pending = np.zeros(0, bool)  # a goal given and not reached yet
         self._tie = np.zeros(0)
@@ -121,6 +135,7 @@ class TrafficManager:
         now = w.time
         row = {"a": node, "b": node, "claim": -1, "seg_step": BIG, "claim_step": BIG, "goal": node, "s": 0.0,
                "sd": 0.0, "sign": 1.0, "since": now, "best": 0.0, "best_at": now, "hold": -math.inf, "scale": 1.0,
+               "urgent_at": math.inf,
                "released": True, "pending": False,
                "_tie": np.random.default_rng(len(self.names)).random() * 1e-3}
         for k, v in row.items():
@@ -138,6 +153,7 @@ class TrafficManager:
         self.goal[i] = node
         self.since[i] = self.best_at[i] = self.service.world.time
         self.best[i] = d
+        self.urgent_at[i] = math.inf
         self.pending[i] = node != self.a[i] or self.a[i] != self.b[i]
         return node
 
@@ -179,7 +195,7 @@ class TrafficManager:
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
         for k in ("a", "b", "claim", "seg_step", "claim_step", "goal", "s", "sd", "sign", "since", "best",
-                  "best_at", "hold", "scale", "released", "pending", "_tie"):
+                  "best_at", "hold", "scale", "urgent_at", "released", "pending", "_tie"):
             setattr(self, k, np.delete(getattr(self, k), i))
 
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
@@ -298,6 +314,9 @@ class TrafficManager:
             if name in self.open_stalls:
                 start, others, why = self.open_stalls.pop(name)
                 took = now - start + self.stall_s
+                if math.isfinite(self.urgent_at[i]):
+                    why += (f"; urgent (top priority, aging) since it had waited {self.urgent_s:g} s, "
+                            f"{now - self.urgent_at[i]:.1f} s ago")
                 self.stats["resolved"] += 1
                 self.stats["longest_deadlock_s"] = max(self.stats["longest_deadlock_s"], took)
                 self.service.events.publish(
@@ -305,6 +324,7 @@ class TrafficManager:
                     f"{took:.1f} s: {why}", strategy="adg_pibt", duration=took)
         if self.pending[i] and self.a[i] == self.goal[i]:  # there, even if the plan moves it on (pushed)
             self.pending[i] = False
+            self.urgent_at[i] = math.inf
             self.stats["reached"] += 1
             if self.on_reached is not None:
                 self.on_reached(name, now)
@@ -313,6 +333,14 @@ class TrafficManager:
         tail = self.sched.tail
         since = self.best_at if self.priority == "since_progress" else self.since
         priority = (now - since) * (self.goal != tail) + self._tie
+        if self.urgent_s is not None:
+            # Aging: a robot that has not come closer for urgent_s outranks every other robot until it reaches
+            # its goal (earliest first among the urgent, a fixed order), so two robots cannot take turns
+            # pushing each other back as their priorities cross.
+            late = self.pending & np.isinf(self.urgent_at) & (now - self.best_at >= self.urgent_s)
+            self.urgent_at[late] = now
+            urgent = np.isfinite(self.urgent_at)
+            priority = np.where(urgent, URGENT + (now - self.urgent_at), priority)
         frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
@@ -354,4 +382,7 @@ class TrafficManager:
     def describe(self) -> dict[str, Any]:
         return {"robots": len(self.names), "cells": len(self.grid), "cell_m": self.grid.cell,
                 "window": self.window, "priority": self.priority, "plan_step": self.sched.step,
-                "fields_computed": self.grid.fields.computed, "open_deadlocks": len(self.open_stalls), **self.stats}
+                "fields_computed": self.grid.fields.computed, "open_deadlocks": len(self.open_stalls),
+                "longest_open_deadlock_s": max((self.service.world.time - t0 + self.stall_s
+                                                for t0, _, _ in self.open_stalls.values()), default=0.0),
+                **self.stats}

@@ -13,7 +13,10 @@ Changes for real robots (fleet/traffic/manager.py executes the steps asynchronou
   one ahead to clear its cell. The reachability argument above assumes rotations are allowed, so in packed
   corners the guarantee is weaker (a push chain that would close a loop must end elsewhere or wait);
 - `frozen` agents (robots with enough moves queued already) neither move nor get pushed this step;
-- among nodes equally close to the goal, the one straight on comes first (a turn costs a stop).
+- among nodes equally close to the goal, the one straight on comes first (a turn costs a stop);
+- `yield_aside`: a pushed agent, among nodes equally close to its goal, takes one its pusher does not need next
+  (no closer to the pusher's goal than its own node), so an agent met head-on steps aside rather than
+  retreating before its pusher node after node.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ class PIBT:
         self.field = field
         self.rng = np.random.default_rng(seed)
         self.pushes: list[tuple[int, int]] = []  # (pusher, pushed) of the last step: priority inheritance
+        self.yield_aside = True  # a pushed agent prefers, among equally good nodes, one off its pusher's way
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
@@ -55,7 +59,14 @@ class PIBT:
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
         straight = np.array([v != self.prefer[i] for v in cands])
-        order = np.lexsort((self.rng.random(len(cands)), straight, dist[cands]))  # nearest, straight on, random
+        if pusher is not None and self.yield_aside:
+            # Off the pusher's way: a node the pusher does not need next (no closer to its goal than i's node).
+            # Otherwise a robot pushed head-on in an aisle retreats before its pusher cell after cell.
+            fp = self.field(self.goals[pusher])
+            on_way = fp[cands] < fp[c]
+        else:
+            on_way = np.zeros(len(cands), bool)
+        order = np.lexsort((self.rng.random(len(cands)), straight, on_way, dist[cands]))  # nearest, aside, straight
         for v in (cands[k] for k in order):
             if v in self.reserved or (pusher is not None and v == self.cur[pusher]):
                 continue

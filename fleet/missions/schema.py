@@ -87,6 +87,12 @@ class TrafficSection(StrictModel):
     stall_s: float = Field(10.0, gt=0, description="no progress for this long raises a deadlock event")
     priority: Literal["goal_age", "since_progress"] = Field(
         "goal_age", description="PIBT priority: time since the goal was given, or since the robot last got closer")
+    lane_cost: float = Field(3.0, ge=1, le=100, description="cost factor of crossing a one-lane cell")
+    highway: float = Field(4.0, ge=1, le=100, description="cost factor of a move against a row's/column's lane "
+                           "direction (1: no lanes)")
+    urgent_s: float | None = Field(12.0, gt=0, description="a robot not closer for this long outranks the rest "
+                                   "until it arrives (null: off)")
+    yield_aside: bool = Field(True, description="a pushed robot prefers a cell its pusher does not need next")
 
 
 class TaskEntry(StrictModel):

@@ -103,7 +103,7 @@ def test_executor_ray_without_ray_says_how_to_install(tmp_path):
 
 
 def test_ctrl_c_cancels_the_sweep_and_writes_the_partial_summary(tmp_path):
-    """SIGINT to `fleetnav run -j 2` once the first run has finished: exit 130, the finished runs are in
+    """SIGINT to `fleetnav run -j 2` (40 runs) once the first run has finished: exit 130, the finished runs are in
     junit.xml and summary.json, the rest are not."""
     import json
     import subprocess
@@ -113,7 +113,7 @@ def test_ctrl_c_cancels_the_sweep_and_writes_the_partial_summary(tmp_path):
     quick = Path(__file__).resolve().parent / "data" / "quick_mission.yaml"
     out = tmp_path / "runs"
     code = "from fleetnav.cli import app; app()"
-    proc = subprocess.Popen([sys.executable, "-c", code, "run", str(quick), "--repeat", "12", "-j", "2", "--out",
+    proc = subprocess.Popen([sys.executable, "-c", code, "run", str(quick), "--repeat", "40", "-j", "2", "--out",
                              str(out), "--no-record"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while not list(out.rglob("report.json")) and time.monotonic() < deadline and proc.poll() is None:
@@ -123,7 +123,7 @@ def test_ctrl_c_cancels_the_sweep_and_writes_the_partial_summary(tmp_path):
     assert proc.returncode == 130, stdout + stderr
     assert "canceled:" in stderr
     finished = sorted(p.parent.name for p in out.rglob("report.json"))
-    assert 1 <= len(finished) < 12
+    assert 1 <= len(finished) < 40  # 40 runs: margin for a poll loop descheduled on a loaded machine
     summary = json.loads((out / "summary.json").read_text())
     assert summary["quick_mission"]["runs"] == len(finished)
     suites = ET.parse(out / "junit.xml").getroot().findall("testsuite")

@@ -27,7 +27,7 @@ class DistanceFields:
         distance from `goal` outward."""
         field = self._cache.get(goal)
         if field is None:
-            field = shortest_path(self.adjacency, unweighted=self.unweighted, indices=goal, directed=False)
+            field = self._compute(goal)
             field.setflags(write=False)
             self._cache[goal] = field
             self.computed += 1
@@ -36,3 +36,6 @@ class DistanceFields:
         else:
             self._cache.move_to_end(goal)
         return field
+
+    def _compute(self, goal: int) -> np.ndarray:
+        return shortest_path(self.adjacency, unweighted=self.unweighted, indices=goal, directed=False)

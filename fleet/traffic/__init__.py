@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from fleet.traffic.grid import TrafficGrid
-from fleet.traffic.layer import ensure_traffic, traffic_layer
+from fleet.traffic.layer import ensure_traffic, install_traffic, traffic_layer
 from fleet.traffic.manager import TrafficManager
 from fleet.traffic.pibt import PIBT
 from fleet.traffic.task import TrafficGoTask
@@ -19,12 +19,7 @@ if TYPE_CHECKING:
 def enable_traffic(service: FleetService, **settings: Any) -> TrafficManager:
     """Put a traffic layer first in the service's control loop (on the sim thread) and return it."""
 
-    def do() -> TrafficManager:
-        tm = TrafficManager(service, **settings)
-        service.control.sources.insert(0, tm)
-        return tm
-
-    return service.call(do)
+    return service.call(lambda: install_traffic(service, **settings))
 
 
 __all__ = ["PIBT", "TrafficGoTask", "TrafficGrid", "TrafficManager", "enable_traffic", "ensure_traffic",

@@ -61,7 +61,7 @@ class TrafficGrid:
         cost = np.where(deg <= 2, lane_cost, 1.0)
         self.adjacency = csr_matrix((0.5 * (cost[r] + cost[c]), (r, c)), shape=(n, n))
         self.neighbours = self._out(self.adjacency)
-        self.fields: DistanceFields | DirectedFields
+        self.fields: DistanceFields  # DirectedFields is one
         if highway != 1.0:  # moves against a lane's direction cost `highway` times more (lanes.py)
             self.adjacency = highways(self.adjacency, self.ij, highway)
             self.fields = DirectedFields(self.adjacency)

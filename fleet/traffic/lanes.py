@@ -8,11 +8,11 @@ their direction as on a road, and mostly meet robots going their way, whom a pus
 
 from __future__ import annotations
 
-from collections import OrderedDict
-
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
+
+from planning.distance_fields import DistanceFields
 
 
 def highways(adjacency: csr_matrix, ij: np.ndarray, against: float) -> csr_matrix:
@@ -28,26 +28,13 @@ def highways(adjacency: csr_matrix, ij: np.ndarray, against: float) -> csr_matri
     return csr_matrix((cost, (coo.row, coo.col)), shape=adjacency.shape)
 
 
-class DirectedFields:
+class DirectedFields(DistanceFields):
     """Cost-to-go fields on a directed graph: distance from every node to a goal along the edges' directions,
-    cached per goal (the same interface as planning.distance_fields.DistanceFields)."""
+    cached per goal (planning.distance_fields.DistanceFields' cache, over the reversed edges)."""
 
     def __init__(self, adjacency: csr_matrix, capacity: int = 4096) -> None:
-        self.adjacency = adjacency
+        super().__init__(adjacency, capacity)
         self._reverse = csr_matrix(adjacency.T)  # distances *to* a goal = from it over reversed edges
-        self.capacity = capacity
-        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
-        self.computed = 0
 
-    def to(self, goal: int) -> np.ndarray:
-        field = self._cache.get(goal)
-        if field is None:
-            field = shortest_path(self._reverse, indices=goal, directed=True)
-            field.setflags(write=False)
-            self._cache[goal] = field
-            self.computed += 1
-            if len(self._cache) > self.capacity:
-                self._cache.popitem(last=False)
-        else:
-            self._cache.move_to_end(goal)
-        return field
+    def _compute(self, goal: int) -> np.ndarray:
+        return shortest_path(self._reverse, indices=goal, directed=True)

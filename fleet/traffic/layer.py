@@ -25,15 +25,22 @@ def traffic_layer(service: FleetService) -> TrafficManager | None:
 
 
 def ensure_traffic(service: FleetService, settings: dict[str, Any]) -> TrafficManager:
-    """The service's traffic layer, enabled with `settings` when there is none (on the sim thread)."""
+    """The service's traffic layer, enabled with `settings` (checked against SETTINGS) when there is none (on
+    the sim thread)."""
+    tm = traffic_layer(service)
+    if tm is not None:
+        return tm
+    unknown = sorted(set(settings) - set(SETTINGS))
+    if unknown:
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown traffic setting(s) {', '.join(unknown)}",
+                         f"valid: {', '.join(SETTINGS)}")
+    return install_traffic(service, **settings)
+
+
+def install_traffic(service: FleetService, **kwargs: Any) -> TrafficManager:
+    """A new traffic layer (TrafficManager arguments), first in the service's control loop (on the sim thread)."""
     from fleet.traffic.manager import TrafficManager
 
-    tm = traffic_layer(service)
-    if tm is None:
-        unknown = sorted(set(settings) - set(SETTINGS))
-        if unknown:
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"unknown traffic setting(s) {', '.join(unknown)}",
-                             f"valid: {', '.join(SETTINGS)}")
-        tm = TrafficManager(service, **settings)
-        service.control.sources.insert(0, tm)
+    tm = TrafficManager(service, **kwargs)
+    service.control.sources.insert(0, tm)
     return tm

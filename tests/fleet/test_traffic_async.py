@@ -20,25 +20,7 @@ from sim import Pose2D
 from sim.sdf_primitives import box, enclosure, ground_plane
 from sim.sdf_writer import save_sdf
 from sim.types import WorldDescription
-
-
-class Naive:
-    """Each robot takes its best neighbour if nobody is in it, else waits: no priority inheritance."""
-
-    def __init__(self, tm: TrafficManager) -> None:
-        self.tm = tm
-        self.pushes: list[tuple[int, int]] = []
-
-    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray, frozen: Sequence[int] = (),
-             prefer: Sequence[int] | None = None) -> list[int]:
-        nxt, taken = list(cur), set(cur)
-        for i in np.argsort(-priority).tolist():
-            field = self.tm.grid.fields.to(goals[i])
-            best = min([cur[i], *self.tm.grid.neighbours[cur[i]]], key=lambda v: field[v])
-            if i not in frozen and best not in taken:
-                taken.add(best)
-                nxt[i] = best
-        return nxt
+from tests.fleet.traffic_util import Naive
 
 
 def world(tmp: Path, name: str, half: tuple[float, float], shelves: Sequence[tuple[float, float, float, float]] = ()

@@ -4,7 +4,6 @@ completes every swap. Overlaps are checked independently from ground-truth poses
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -16,30 +15,9 @@ from sim import Pose2D
 from sim.sdf_primitives import box, enclosure, ground_plane
 from sim.sdf_writer import save_sdf
 from sim.types import WorldDescription
+from tests.fleet.traffic_util import Naive
 
 LEFT = [(-4.5, -1.5), (-4.5, 1.5), (-3.5, -0.5), (-2.5, 1.5)]
-
-
-class Naive:
-    """Each robot, in priority order, takes the free neighbour nearest its goal, else waits (no inheritance)."""
-
-    def __init__(self, tm: TrafficManager) -> None:
-        self.tm = tm
-        self.pushes: list[tuple[int, int]] = []
-
-    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray, frozen: Sequence[int] = (),
-             prefer: Sequence[int] | None = None) -> list[int]:
-        occupied, nxt = set(cur), list(cur)
-        taken = set(cur)
-        for i in np.argsort(-priority).tolist():
-            if i in frozen:
-                continue
-            field = self.tm.grid.fields.to(goals[i])
-            best = min([cur[i], *self.tm.grid.neighbours[cur[i]]], key=lambda v: field[v])
-            if best != cur[i] and best not in occupied and best not in taken:
-                taken.add(best)
-                nxt[i] = best
-        return nxt
 
 
 def corridor_world(tmp: Path) -> Path:

@@ -17,18 +17,7 @@ SEGS = synth.room()
 
 def loop(n: int, step: float) -> list[Pose2D]:
     """A rectangular lap of the room clear of every obstacle (≥ 0.3 m), 44 m, corners turned over ~1 m."""
-    pts = [(3.6, 3.0), (18.0, 3.0), (18.0, 12.9), (3.6, 12.9)]
-    poly = np.array([*pts, pts[0]], dtype=np.float64)
-    seg = np.diff(poly, axis=0)
-    lens = np.hypot(seg[:, 0], seg[:, 1])
-    cum = np.concatenate([[0.0], np.cumsum(lens)])
-    s = (np.arange(n) * step) % cum[-1]
-    i = np.searchsorted(cum, s, side="right") - 1
-    xy = poly[i] + ((s - cum[i]) / lens[i])[:, None] * seg[i]
-    yaw = np.unwrap(np.arctan2(seg[i, 1], seg[i, 0]))
-    k = 5
-    yaw = np.convolve(np.pad(yaw, (k // 2, k // 2), mode="edge"), np.ones(k) / k, mode="valid")
-    return [Pose2D(float(x), float(y), math.remainder(float(t), math.tau)) for (x, y), t in zip(xy, yaw, strict=True)]
+    return synth.polygon_path([(3.6, 3.0), (18.0, 3.0), (18.0, 12.9), (3.6, 12.9)], n, step, smooth=5)
 
 
 def drifted(truth: list[Pose2D], yaw_bias_per_m: float, rng: np.random.Generator) -> list[Pose2D]:

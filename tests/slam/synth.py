@@ -64,24 +64,24 @@ def ground_truth_grid(segments: np.ndarray, resolution: float, bounds: tuple[flo
     return OccupancyGrid(data, resolution, (x0, y0))
 
 
-def loop_path(n: int, step: float = 0.1) -> list[Pose2D]:
-    """A rounded rectangle loop around the room's obstacles, `n` poses `step` m apart (repeats)."""
-    pts = [(3.5, 2.5), (17.0, 2.5 + 0.5), (18.0, 11.5), (8.0, 12.2), (3.5, 10.0)]
+def polygon_path(pts: list[tuple[float, float]], n: int, step: float, smooth: int) -> list[Pose2D]:
+    """`n` poses `step` m apart around the closed polygon `pts` (repeating), the heading smoothed over `smooth`
+    poses so corners turn gradually, like a real robot."""
     poly = np.array([*pts, pts[0]], dtype=np.float64)
     seg = np.diff(poly, axis=0)
     lens = np.hypot(seg[:, 0], seg[:, 1])
     cum = np.concatenate([[0.0], np.cumsum(lens)])
     s = (np.arange(n) * step) % cum[-1]
     i = np.searchsorted(cum, s, side="right") - 1
-    f = (s - cum[i]) / lens[i]
-    xy = poly[i] + f[:, None] * seg[i]
-    yaw = np.arctan2(seg[i, 1], seg[i, 0])
-    # smooth the corners so the heading changes over ~1 m, like a real robot turning
-    yaw_u = np.unwrap(yaw)
-    k = 9
-    yaw_s = np.convolve(np.pad(yaw_u, (k // 2, k // 2), mode="edge"), np.ones(k) / k, mode="valid")
-    return [Pose2D(float(x), float(y), math.atan2(math.sin(t), math.cos(t)))
-            for (x, y), t in zip(xy, yaw_s, strict=True)]
+    xy = poly[i] + ((s - cum[i]) / lens[i])[:, None] * seg[i]
+    yaw = np.unwrap(np.arctan2(seg[i, 1], seg[i, 0]))
+    yaw = np.convolve(np.pad(yaw, (smooth // 2, smooth // 2), mode="edge"), np.ones(smooth) / smooth, mode="valid")
+    return [Pose2D(float(x), float(y), math.atan2(math.sin(t), math.cos(t))) for (x, y), t in zip(xy, yaw, strict=True)]
+
+
+def loop_path(n: int, step: float = 0.1) -> list[Pose2D]:
+    """A rounded rectangle loop around the room's obstacles, `n` poses `step` m apart (repeats)."""
+    return polygon_path([(3.5, 2.5), (17.0, 2.5 + 0.5), (18.0, 11.5), (8.0, 12.2), (3.5, 10.0)], n, step, smooth=9)
 
 
 def wheel_odometry(truth: list[Pose2D], rng: np.random.Generator, slip: float = 0.02, bias: float = 0.01

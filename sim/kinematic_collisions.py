@@ -13,9 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pybullet as p
-from scipy.spatial import cKDTree
 
-from sim.contact_query import PENETRATION, robot_penetrations
+from sim.contact_query import PENETRATION, expand_ranges, robot_penetrations
 
 RawContact = tuple[int, tuple[float, float, float], float]  # (other uid, position, penetration depth)
 
@@ -78,13 +77,17 @@ def resolve_kinematic_collisions(world: World, moved: np.ndarray,
     px[moved], py[moved], pyaw[moved] = previous
     reach = 2.0 * float(f["radius"][kin_rows].max()) if kin_rows.size else 0.0
     frontier = np.flatnonzero(reverted)
-    # Moved robots stay where they moved until reverted, so one k-d tree over them serves every round.
-    tree = cKDTree(np.column_stack([f["x"][moved], f["y"][moved]])) if frontier.size else None
-    while tree is not None and frontier.size:
+    # Moved robots stay where they moved until reverted, so one sort of them along x serves every round.
+    by_x = moved[np.argsort(f["x"][moved], kind="stable")] if frontier.size else moved
+    mx, my = f["x"][by_x], f["y"][by_x]
+    while frontier.size:
         f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = px[frontier], py[frontier], pyaw[frontier]
         # Moved, not-yet-reverted robots now within two footprint radii of a reverted robot's old spot.
-        near = tree.query_ball_point(np.column_stack([f["x"][frontier], f["y"][frontier]]), reach)
-        hit = moved[np.unique(np.fromiter((k for ks in near for k in ks), dtype=np.int64))]
+        fx, fy = f["x"][frontier], f["y"][frontier]
+        owner, k = expand_ranges(np.searchsorted(mx, fx - reach, side="left"),
+                                 np.searchsorted(mx, fx + reach, side="right"))
+        near = np.hypot(mx[k] - fx[owner], my[k] - fy[owner]) <= reach
+        hit = np.unique(by_x[k[near]])
         frontier = hit[~reverted[hit]]
         reverted[frontier] = True
     rows = np.flatnonzero(reverted)

@@ -112,7 +112,9 @@ def table(results: list[Result], peer: PeerResult | str | None) -> Table:
         if r is peer_row and peer is not None:
             peer_txt = f"{peer.rtf:.2f} ({peer.rtf_cpu:.2f})" if isinstance(peer, PeerResult) else "unavailable"
         met_txt = {None: "", True: "yes", False: "NO"}[met]
-        if met is False and r.config.beams is None and r.config.drive == "kinematic" and r.rtf_cpu >= RTF_TARGET:
+        if met is False and r.config.beams is None and r.config.drive == "kinematic" and r.rtf_cpu >= RTF_TARGET \
+                and r.overlaps_end == 0 == r.raw_overlap_steps \
+                and r.cpu_s / r.steps <= KINEMATIC_COST_TARGET * r.raw_motion_cpu_s:
             met_txt = "NO (cpu: yes)"
         t.add_row(r.config.label, str(r.config.robots), f"{r.rtf:.2f}", f"{r.rtf_cpu:.2f}",
                   f"{r.robot_steps_per_s:,.0f}",

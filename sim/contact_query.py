@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pybullet as p
 
-from sim.contact_broadphase import GROW, boxes_overlap, expand_ranges, robot_obstacle, robot_robot
+from sim.contact_broadphase import GROW, boxes_overlap, expand_ranges, robot_robot
+from sim.contact_obstacles import moving_pairs, static_pairs
 
 if TYPE_CHECKING:
     from sim.world import World
@@ -38,7 +39,8 @@ def hull_columns(client: int, uid: int) -> dict[str, float]:
 
 def candidate_pairs(world: World, rows: np.ndarray) -> list[tuple[int, int]]:
     """Pairs (robot uid, other uid) that might penetrate, for the robots in `rows`: robot pairs whose boxes
-    overlap, then world bodies whose axis-aligned boxes (within robot height) overlap a robot's box."""
+    overlap, then static obstacles whose footprint touches a robot's box, then moving models whose axis-aligned
+    box does (obstacles only within robot height)."""
     t = world.table
     if rows.size == 0 or len(t) == 0:
         return []
@@ -49,9 +51,13 @@ def candidate_pairs(world: World, rows: np.ndarray) -> list[tuple[int, int]]:
         in_rows[rows] = True
         a, b = robot_robot(t, in_rows)
         pairs += zip(body[a].tolist(), body[b].tolist(), strict=True)
-    uids, lo, hi = world.models.obstacle_aabbs()
+    uids, lo, hi = world.models.static_obstacle_aabbs()
     if uids.size:
-        k, j = robot_obstacle(t, rows, world.models, lo, hi, ROBOT_TOP)
+        k, j = static_pairs(t, rows, world.models, world.client, uids, lo, hi, ROBOT_TOP)
+        pairs += zip(body[k].tolist(), uids[j].tolist(), strict=True)
+    uids, lo, hi = world.models.moving_obstacle_aabbs()
+    if uids.size:
+        k, j = moving_pairs(t, rows, lo, hi, ROBOT_TOP)
         pairs += zip(body[k].tolist(), uids[j].tolist(), strict=True)
     return pairs
 

@@ -19,10 +19,12 @@ from sim.contact_query import PENETRATION, boxes_overlap, robot_penetrations
 from sim.types import Box, Collision, Cylinder, Link, ModelDescription, Pose3D, Visual
 
 
-def add_static(w: World, name: str, geom: Box | Cylinder, x: float, y: float, yaw: float = 0.0) -> None:
-    link = Link("link", collisions=(Collision("c", geom),), visuals=(Visual("v", geom),))
+def add_static(w: World, name: str, geom: Box | Cylinder, x: float, y: float, yaw: float = 0.0, *,
+               roll: float = 0.0, static: bool = True) -> None:
+    link = Link("link", mass=0.0 if static else 5.0, inertia=(0.5, 0, 0, 0.5, 0, 0.5),
+                collisions=(Collision("c", geom),), visuals=(Visual("v", geom),))
     h = geom.size[2] if isinstance(geom, Box) else geom.length
-    w.models.add_model(ModelDescription(name, Pose3D(x, y, h / 2, 0, 0, yaw), True, (link,)))
+    w.models.add_model(ModelDescription(name, Pose3D(x, y, h / 2, roll, 0, yaw), static, (link,)))
     w._sync_labels()
 
 
@@ -62,7 +64,10 @@ def dense_world(seed: int) -> World:
             add_static(w, f"cyl{k}", Cylinder(rng.uniform(0.1, 0.6), 1.0), x, y)
     add_static(w, "wall_n", Box((10.0, 0.2, 1.0)), 0.0, 4.2)
     add_static(w, "wall_e", Box((0.2, 10.0, 1.0)), 4.2, 0.0)
-    add_static(w, "beam", Box((3.0, 0.3, 0.2)), -2.0, -2.0)  # low and long, at a slant
+    add_static(w, "beam", Box((3.0, 0.3, 0.2)), -2.0, -2.0, 0.5)  # low and long, at a slant
+    add_static(w, "leaning", Box((1.0, 0.4, 1.0)), 1.5, -1.0, 0.3, roll=0.4)  # tilted: its AABB stands in
+    add_static(w, "cart", Box((0.8, 0.6, 0.5)), -1.0, 2.0, 0.7, static=False)  # a moving model
+    add_static(w, "drum", Cylinder(0.4, 0.9), 2.0, 2.5, static=False)
     return w
 
 
@@ -74,6 +79,8 @@ def test_broadphase_finds_exactly_the_brute_force_penetrations(seed: int):
             truth = brute_force(w, rows)
             fast = {frozenset((a, b)): d for a, b, _, d in robot_penetrations(w, rows)}
             assert len(truth) > 20  # a dense scene: the comparison is not vacuous
+            if rows.size == len(w.table):  # the moving model and the tilted box (its AABB stands in) take part
+                assert {"cart", "leaning"} <= {w.body_label(u)[0] for pair in truth for u in pair}
             assert fast.keys() == truth.keys()
             for pair, d in truth.items():
                 assert fast[pair] == pytest.approx(d, abs=1e-6)  # a/b swapped: GJK rounding

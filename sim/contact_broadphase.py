@@ -91,9 +91,9 @@ def oriented(t: RobotTable, h: Hulls, k: np.ndarray) -> Oriented:
     return f["x"][k] + c * lx - s * ly, f["y"][k] + s * lx + c * ly, c, s, h.hx[k], h.hy[k]
 
 
-def robot_robot(t: RobotTable, in_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows (a, b) of robot pairs whose boxes overlap, at least one in rows; a is in rows (the lower if both),
-    sorted by (a, b)."""
+def robot_robot(t: RobotTable, in_rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Rows (a, b) of robot pairs whose boxes overlap, at least one in rows (None: every robot); a is in rows
+    (the lower if both), sorted by (a, b)."""
     f, h = t.f, hulls(t)
     x, y, rc = f["x"], f["y"], h.rc
     reach = 2.0 * float(rc.max()) + 1e-6
@@ -106,11 +106,15 @@ def robot_robot(t: RobotTable, in_rows: np.ndarray) -> tuple[np.ndarray, np.ndar
     above = expand_ranges(np.searchsorted(ks, ks + (width - reach), side="left"),
                           np.searchsorted(ks, ks + (width + reach), side="right"))
     a, b = order[np.concatenate([same[0], above[0]])], order[np.concatenate([same[1], above[1]])]
-    keep = (in_rows[a] | in_rows[b]) & (np.hypot(x[b] - x[a], y[b] - y[a]) <= rc[a] + rc[b])
+    keep = np.hypot(x[b] - x[a], y[b] - y[a]) <= rc[a] + rc[b]
+    if in_rows is not None:
+        keep &= in_rows[a] | in_rows[b]
     a, b = a[keep], b[keep]
-    keep = boxes_overlap(*oriented(t, h, a), *oriented(t, h, b))
+    n = a.size
+    bx, by, c, s, hx, hy = oriented(t, h, np.concatenate([a, b]))  # both ends in one pass
+    keep = boxes_overlap(bx[:n], by[:n], c[:n], s[:n], hx[:n], hy[:n], bx[n:], by[n:], c[n:], s[n:], hx[n:], hy[n:])
     lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
-    first = np.where(in_rows[lo], lo, hi)
-    second = np.where(in_rows[lo], hi, lo)
-    order = np.lexsort((second, first))
-    return first[order], second[order]
+    if in_rows is not None:
+        lo, hi = np.where(in_rows[lo], lo, hi), np.where(in_rows[lo], hi, lo)
+    order = np.lexsort((hi, lo))
+    return lo[order], hi[order]

@@ -47,8 +47,10 @@ def candidate_pairs(world: World, rows: np.ndarray) -> list[tuple[int, int]]:
     body = t.body
     pairs: list[tuple[int, int]] = []
     if len(t) > 1:
-        in_rows = np.zeros(len(t), dtype=bool)
-        in_rows[rows] = True
+        in_rows = None
+        if rows.size < len(t):
+            in_rows = np.zeros(len(t), dtype=bool)
+            in_rows[rows] = True
         a, b = robot_robot(t, in_rows)
         pairs += zip(body[a].tolist(), body[b].tolist(), strict=True)
     uids, lo, hi = world.models.static_obstacle_aabbs()

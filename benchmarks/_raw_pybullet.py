@@ -50,7 +50,7 @@ class RawBaseline:
         positions = [(x, y, 0.0) for x, y in pose[:, :2].tolist()]
         half = pose[:, 2] / 2
         quats = [(0.0, 0.0, s, w) for s, w in zip(np.sin(half).tolist(), np.cos(half).tolist(), strict=True)]
-        t0, c0 = time.perf_counter(), time.process_time()
+        c0, t0 = time.process_time(), time.perf_counter()  # the CPU clock read outside the wall window
         for uid, pos, orn in zip(self.uids, positions, quats, strict=True):
             p.resetBasePositionAndOrientation(uid, pos, orn, physicsClientId=c)
         p.performCollisionDetection(physicsClientId=c)
@@ -79,7 +79,7 @@ class RawBaseline:
         left, right = ((sp_v - sp_w * sep / 2) / r).tolist(), ((sp_v + sp_w * sep / 2) / r).tolist()
         calls = [(uid, j, [wl, wr], [tq, tq]) for uid, j, wl, wr, tq
                  in zip(self.uids, self.wheels, left, right, torque.tolist(), strict=True)]
-        t0, c0 = time.perf_counter(), time.process_time()
+        c0, t0 = time.process_time(), time.perf_counter()  # the CPU clock read outside the wall window
         for uid, joints, targets, forces in calls:
             p.setJointMotorControlArray(uid, joints, p.VELOCITY_CONTROL, targetVelocities=targets, forces=forces,
                                         physicsClientId=c)

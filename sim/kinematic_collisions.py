@@ -94,18 +94,21 @@ def _revert_cascade(f: dict[str, np.ndarray], moved: np.ndarray, previous: tuple
                     reverted: np.ndarray, frontier: np.ndarray, reach: float) -> None:
     """Put the frontier's robots back, then every moved robot now within `reach` (two circles holding the
     robots' shapes) of a reverted robot's old spot, until no reverted spot is contested. Marks `reverted`."""
-    px, py, pyaw = (np.zeros(reverted.size) for _ in range(3))
-    px[moved], py[moved], pyaw[moved] = previous
+    at = np.empty(reverted.size, dtype=np.int64)  # row → its position in `moved` (and in `previous`)
+    at[moved] = np.arange(moved.size)
     # Moved robots stay where they moved until reverted, so one sort of them along x serves every round.
     by_x = moved[np.argsort(f["x"][moved], kind="stable")]
     mx, my = f["x"][by_x], f["y"][by_x]
+    near = np.zeros(by_x.size, dtype=bool)
     while frontier.size:
-        f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = px[frontier], py[frontier], pyaw[frontier]
-        fx, fy = f["x"][frontier], f["y"][frontier]
-        owner, k = expand_ranges(np.searchsorted(mx, fx - reach, side="left"),
+        k = at[frontier]
+        fx, fy = previous[0][k], previous[1][k]
+        f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = fx, fy, previous[2][k]
+        owner, j = expand_ranges(np.searchsorted(mx, fx - reach, side="left"),
                                  np.searchsorted(mx, fx + reach, side="right"))
-        near = np.hypot(mx[k] - fx[owner], my[k] - fy[owner]) <= reach
-        hit = np.unique(by_x[k[near]])
+        near[:] = False
+        near[j[np.hypot(mx[j] - fx[owner], my[j] - fy[owner]) <= reach]] = True
+        hit = by_x[near]
         frontier = hit[~reverted[hit]]
         reverted[frontier] = True
 

@@ -11,6 +11,7 @@ in penetration. A kinematic robot is tested as its collision shapes' bounding bo
 
 from __future__ import annotations
 
+from operator import itemgetter
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,6 +29,7 @@ __all__ = ["GROW", "PENETRATION", "ROBOT_TOP", "boxes_overlap", "candidate_pairs
 PENETRATION = -1e-3  # m: distances below this are overlaps, not grazing contacts
 ROBOT_TOP = 0.7  # m: robots' AABB height for the obstacle broadphase (lidar housing included)
 Penetration = tuple[int, int, tuple[float, float, float], float]  # uid a, uid b, position on a, distance
+by_distance = itemgetter(8)  # a contact point's signed distance
 
 
 def hull_columns(client: int, uid: int) -> dict[str, float]:
@@ -72,7 +74,7 @@ def penetrations(world: World, pairs: list[tuple[int, int]]) -> list[Penetration
         pts = closest(a, b, 0.0, physicsClientId=c)
         if not pts:
             continue
-        deepest = min(pts, key=lambda ct: ct[8])
+        deepest = min(pts, key=by_distance)
         if deepest[8] < PENETRATION:
             pos = deepest[5]
             out.append((a, b, (pos[0], pos[1], pos[2]), float(deepest[8])))

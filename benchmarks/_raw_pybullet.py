@@ -41,6 +41,7 @@ class RawBaseline:
         aabbs = [p.getAABB(u, physicsClientId=self.client) for u in statics]
         self.static_lo = np.array([a[0][:2] for a in aabbs]).reshape(-1, 2)
         self.static_hi = np.array([a[1][:2] for a in aabbs]).reshape(-1, 2)
+        self.cpu_s = 0.0  # process CPU time of the timed motion steps (kinematic and dynamic), summed
 
     def kinematic_step(self, pose: np.ndarray) -> float:
         """Teleport every robot to `pose` ((n, 3): x, y, yaw) with resetBasePositionAndOrientation, then
@@ -49,12 +50,14 @@ class RawBaseline:
         positions = [(x, y, 0.0) for x, y in pose[:, :2].tolist()]
         half = pose[:, 2] / 2
         quats = [(0.0, 0.0, s, w) for s, w in zip(np.sin(half).tolist(), np.cos(half).tolist(), strict=True)]
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()  # the CPU clock read outside the wall window
         for uid, pos, orn in zip(self.uids, positions, quats, strict=True):
             p.resetBasePositionAndOrientation(uid, pos, orn, physicsClientId=c)
         p.performCollisionDetection(physicsClientId=c)
         p.getContactPoints(physicsClientId=c)
-        return time.perf_counter() - t0
+        wall = time.perf_counter() - t0
+        self.cpu_s += time.process_time() - c0
+        return wall
 
     def penetrating_pairs(self, pose: np.ndarray) -> int:
         """Pairs (robot–robot, robot–obstacle) deeper in each other than the World tolerates at the pose of
@@ -76,12 +79,14 @@ class RawBaseline:
         left, right = ((sp_v - sp_w * sep / 2) / r).tolist(), ((sp_v + sp_w * sep / 2) / r).tolist()
         calls = [(uid, j, [wl, wr], [tq, tq]) for uid, j, wl, wr, tq
                  in zip(self.uids, self.wheels, left, right, torque.tolist(), strict=True)]
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()  # the CPU clock read outside the wall window
         for uid, joints, targets, forces in calls:
             p.setJointMotorControlArray(uid, joints, p.VELOCITY_CONTROL, targetVelocities=targets, forces=forces,
                                         physicsClientId=c)
         p.stepSimulation(physicsClientId=c)
-        return time.perf_counter() - t0
+        wall = time.perf_counter() - t0
+        self.cpu_s += time.process_time() - c0
+        return wall
 
     def robot_poses(self) -> np.ndarray:
         """(n, 3) x, y, yaw of the twin's robots as PyBullet has them (dynamic twins move on their own)."""

@@ -2,9 +2,10 @@
 
 Each robot drives an arc (v 0.4–1.0 m/s, |ω| ≤ 0.6 rad/s: turning radius ≥ 0.67 m) for 2–6 s of sim time,
 then picks another. A robot whose last move was blocked (the world reverted it) picks a random escape
-command (v −0.4…0.8 m/s, |ω| ≤ 1 rad/s) for 0.5–1.5 s. Commands go through the public
-`World.set_cmd_vel`; bumps are read from the world's fleet-state table (read-only, one array read instead of
-1000 `robot_in_collision` calls a step). Its own seeded RNG keeps the sim's RNG for the sim.
+command (v −0.4…0.8 m/s, |ω| ≤ 1 rad/s) for 0.5–1.5 s. Commands go through the public batched
+`World.set_cmd_vels` (set_cmd_vel's clamping, one call per group of robots); bumps are read from the world's
+fleet-state table (read-only, one array read instead of 1000 `robot_in_collision` calls a step). Its own
+seeded RNG keeps the sim's RNG for the sim.
 """
 
 from __future__ import annotations
@@ -34,6 +35,6 @@ class ArcDriver:
         return int(stuck.size)
 
     def _command(self, rows: np.ndarray, v: np.ndarray, w: np.ndarray, until: np.ndarray) -> None:
-        for i, vi, wi in zip(rows.tolist(), v.tolist(), w.tolist(), strict=True):
-            self.world.set_cmd_vel(self.names[i], vi, wi)
+        if rows.size:  # rows of robot_names(): the fleet's arrays go in as they are, as a fleet controller's would
+            self.world.set_cmd_vels(rows, v, w)
         self.next_change[rows] = until

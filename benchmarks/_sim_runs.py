@@ -53,6 +53,7 @@ class Result:
     blocked: float  # mean robots blocked (collision resolved by reverting) per step
     overlaps_end: int  # penetrating pairs after the last step, as the World's own query sees them (must be 0)
     raw_step_s: float  # raw PyBullet seconds per step for the same work (lidar casts included)
+    raw_motion_cpu_s: float  # raw PyBullet CPU seconds per step of the motion step alone (lidar casts excluded)
     raw_overlap_steps: int  # steps after which a pair penetrates, by fresh getClosestPoints (must be 0)
     raw_rays_per_s: float  # raw rayTestBatch throughput on the same scene (0 when lidar is off)
 
@@ -106,6 +107,7 @@ def run_config(cfg: Config, scene: Scene, budget: Budget) -> Result:
             driver.update()
             world.step()
             _raw_step(cfg, raw, f)
+        raw.cpu_s = 0.0
         rays = RayCounter()
         world.subscribe(rays, kinds=("scan",))
         prev = _pose(f)
@@ -130,7 +132,7 @@ def run_config(cfg: Config, scene: Scene, budget: Budget) -> Result:
                 raw_lidar_wall, raw_rays = raw_lidar_wall + dt, raw_rays + n
         overlaps = len(penetrating_contacts(world)) if cfg.drive == "kinematic" else 0
         return Result(cfg, steps, wall, cpu, setup_s, rays.rays, moved / steps, blocked / steps, overlaps,
-                      (raw_wall + raw_lidar_wall) / steps, overlap_steps,
+                      (raw_wall + raw_lidar_wall) / steps, raw.cpu_s / steps, overlap_steps,
                       raw_rays / raw_lidar_wall if raw_lidar_wall else 0.0)
     finally:
         world.close()

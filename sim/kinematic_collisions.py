@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pybullet as p
-from scipy.spatial import cKDTree
 
+from sim.contact_broadphase import expand_ranges, hulls
 from sim.contact_query import PENETRATION, robot_penetrations
 
 RawContact = tuple[int, tuple[float, float, float], float]  # (other uid, position, penetration depth)
@@ -57,42 +57,60 @@ def resolve_kinematic_collisions(world: World, moved: np.ndarray,
     t.b["in_collision"][kin_rows] = False
     # Only robots in contact have an entry (latest_contacts reads a missing one as none): clearing the
     # kinematic ones touches the few in contact, not every robot of the fleet.
-    for name in [n for n in world._contacts if kin[t.index(n)]]:
-        del world._contacts[name]
+    if kin_rows.size == len(t):
+        world._contacts.clear()
+    else:
+        for name in [n for n in world._contacts if kin[t.index(n)]]:
+            del world._contacts[name]
     if moved.size == 0:
         return moved
     teleport(world, moved)
     row_of = t.row_of_uid
-    is_moved = np.zeros(len(t), dtype=bool)
-    is_moved[moved] = True
     contacts: dict[int, list[RawContact]] = {}
-    reverted = np.zeros(len(t), dtype=bool)
     for a, b, pos, dist in robot_penetrations(world, moved):
         for uid, other in ((a, b), (b, a)):
             row = row_of.get(uid)
-            if row is None or not t.b["kinematic"][row]:
-                continue
-            contacts.setdefault(row, []).append((other, pos, -dist))
-            reverted[row] |= is_moved[row]
-    px, py, pyaw = (np.zeros(len(t)) for _ in range(3))
-    px[moved], py[moved], pyaw[moved] = previous
-    reach = 2.0 * float(f["radius"][kin_rows].max()) if kin_rows.size else 0.0
+            if row is not None:
+                contacts.setdefault(row, []).append((other, pos, -dist))
+    hit = np.fromiter(contacts, dtype=np.int64, count=len(contacts))
+    hit = hit[kin[hit]]  # a dynamic robot's contacts come from its own physics
+    is_moved = np.zeros(len(t), dtype=bool)
+    is_moved[moved] = True
+    reverted = np.zeros(len(t), dtype=bool)
+    reverted[hit[is_moved[hit]]] = True
     frontier = np.flatnonzero(reverted)
-    # Moved robots stay where they moved until reverted, so one k-d tree over them serves every round.
-    tree = cKDTree(np.column_stack([f["x"][moved], f["y"][moved]])) if frontier.size else None
-    while tree is not None and frontier.size:
-        f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = px[frontier], py[frontier], pyaw[frontier]
-        # Moved, not-yet-reverted robots now within two footprint radii of a reverted robot's old spot.
-        near = tree.query_ball_point(np.column_stack([f["x"][frontier], f["y"][frontier]]), reach)
-        hit = moved[np.unique(np.fromiter((k for ks in near for k in ks), dtype=np.int64))]
-        frontier = hit[~reverted[hit]]
-        reverted[frontier] = True
+    if frontier.size:
+        _revert_cascade(f, moved, previous, reverted, frontier, 2.0 * float(hulls(t).r0[kin_rows].max()))
     rows = np.flatnonzero(reverted)
     teleport(world, rows)
-    for row, cs in contacts.items():
-        t.b["in_collision"][row] = True
-        world._contacts[t.names[row]] = tuple(cs)  # raw: labelled only when someone reads them
+    t.b["in_collision"][hit] = True
+    names = t.names
+    for row in hit.tolist():
+        world._contacts[names[row]] = tuple(contacts[row])  # raw: labelled only when someone reads them
     return rows
+
+
+def _revert_cascade(f: dict[str, np.ndarray], moved: np.ndarray, previous: tuple[np.ndarray, np.ndarray, np.ndarray],
+                    reverted: np.ndarray, frontier: np.ndarray, reach: float) -> None:
+    """Put the frontier's robots back, then every moved robot now within `reach` (two circles holding the
+    robots' shapes) of a reverted robot's old spot, until no reverted spot is contested. Marks `reverted`."""
+    at = np.empty(reverted.size, dtype=np.int64)  # row → its position in `moved` (and in `previous`)
+    at[moved] = np.arange(moved.size)
+    # Moved robots stay where they moved until reverted, so one sort of them along x serves every round.
+    by_x = moved[np.argsort(f["x"][moved], kind="stable")]
+    mx, my = f["x"][by_x], f["y"][by_x]
+    near = np.zeros(by_x.size, dtype=bool)
+    while frontier.size:
+        k = at[frontier]
+        fx, fy = previous[0][k], previous[1][k]
+        f["x"][frontier], f["y"][frontier], f["yaw"][frontier] = fx, fy, previous[2][k]
+        owner, j = expand_ranges(np.searchsorted(mx, fx - reach, side="left"),
+                                 np.searchsorted(mx, fx + reach, side="right"))
+        near[:] = False
+        near[j[np.hypot(mx[j] - fx[owner], my[j] - fy[owner]) <= reach]] = True
+        hit = by_x[near]
+        frontier = hit[~reverted[hit]]
+        reverted[frontier] = True
 
 
 def overlaps(world: World, uid: int) -> list[str]:

@@ -139,21 +139,29 @@ class ModelRegistry:
         return {uid for r in self.records.values() if r.kind == "ground" for uid in r.uids}
 
     def obstacle_aabbs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(uids, mins (n, 3), maxs (n, 3)) of every non-ground body; static ones cached per version,
-        moving ones measured now."""
+        """(uids, mins (n, 3), maxs (n, 3)) of every non-ground body: the static ones, then the moving ones."""
+        uids_s, lo_s, hi_s = self.static_obstacle_aabbs()
+        uids_m, lo_m, hi_m = self.moving_obstacle_aabbs()
+        if not uids_m.size:
+            return uids_s, lo_s, hi_s
+        return np.concatenate([uids_s, uids_m]), np.vstack([lo_s, lo_m]), np.vstack([hi_s, hi_m])
+
+    def static_obstacle_aabbs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """obstacle_aabbs of the static bodies: the same arrays until a body is added, removed or moved."""
         if self._aabb_cache is None or self._aabb_cache[0] != self.version:
             uids = [u for r in self.records.values() if r.kind != "ground" and r.static for u in r.uids]
             boxes = [self._body_aabb(u) for u in uids]
             self._aabb_cache = (self.version, np.array(uids, dtype=np.int64),
                                 np.array([b[0] for b in boxes]).reshape(-1, 3),
                                 np.array([b[1] for b in boxes]).reshape(-1, 3))
-        _, uids_s, lo_s, hi_s = self._aabb_cache
+        return self._aabb_cache[1:]
+
+    def moving_obstacle_aabbs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """obstacle_aabbs of the non-static bodies, measured now."""
         moving = [u for r in self.records.values() if r.kind != "ground" and not r.static for u in r.uids]
-        if not moving:
-            return uids_s, lo_s, hi_s
         boxes = [self._body_aabb(u) for u in moving]
-        return (np.concatenate([uids_s, np.array(moving, dtype=np.int64)]),
-                np.vstack([lo_s, np.array([b[0] for b in boxes])]), np.vstack([hi_s, np.array([b[1] for b in boxes])]))
+        return (np.array(moving, dtype=np.int64), np.array([b[0] for b in boxes]).reshape(-1, 3),
+                np.array([b[1] for b in boxes]).reshape(-1, 3))
 
     def _body_aabb(self, uid: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """AABB of a body including all its links (URDF models have several)."""

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pybullet as p
 
+from sim.contact_query import hull_columns
 from sim.errors import ErrorCode, FleetError
 from sim.kinematic_collisions import RawContact, overlaps
 from sim.robot_body import dynamic_robot, kinematic_proxy
@@ -60,6 +61,8 @@ def spawn_robot(world: World, name: str, pose: Pose2D, spec: RobotSpec, fidelity
         "imu_bgx": s.imu.gyro_bias[0], "imu_bgy": s.imu.gyro_bias[1], "imu_bgz": s.imu.gyro_bias[2],
         "odom_slip_std": s.odometry.slip_std, "odom_radius_scale": 1.0 + s.odometry.wheel_radius_error,
     }
+    if fidelity == "kinematic":  # created unrotated at the origin: its AABB now is its box in its own frame
+        floats |= hull_columns(world.client, body.uid)
     row = world.table.add(name, body.uid, floats, {"kinematic": fidelity == "kinematic"})
     world.specs[name], world.bodies[name], world.fidelities[name] = spec, body, fidelity
     world._lidar_cfg.append(LidarConfig.from_spec(spec))

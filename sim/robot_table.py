@@ -21,6 +21,7 @@ FLOAT_COLUMNS = (
     "enc_l", "enc_r",  # wheel angles at the last odometry sample
     "odom_x", "odom_y", "odom_yaw", "odom_v", "odom_w",  # wheel-odometry estimate (odom frame)
     "wheel_radius", "wheel_sep", "radius",  # radius: footprint circle about base_link
+    "hull_x0", "hull_x1", "hull_y0", "hull_y1",  # kinematic proxy's collision box in base_link (contact_query)
     "next_lidar", "next_imu", "next_odom",  # sim time each sensor is next due
     "lidar_period", "imu_period", "odom_period",
     "lidar_noise_scale", "imu_noise_scale", "odom_noise_scale",  # failure injection: 1 = nominal

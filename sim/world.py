@@ -6,12 +6,13 @@ Every PyBullet call passes this world's client id. See docs/world-api.md for the
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pybullet as p
+from numpy.typing import ArrayLike
 
 from sim import world_motion, world_sensors
 from sim.drive import limit_twist
@@ -193,6 +194,11 @@ class World:
         if aw != w:
             reasons.append(f"angular {w:.3g} clamped to ±{max_w:.3g} rad/s")
         return CommandResult(name, v, w, av, aw, True, "; ".join(reasons), self._time)
+
+    def set_cmd_vels(self, robots: Sequence[str] | np.ndarray, v: ArrayLike, w: ArrayLike) -> np.ndarray:
+        """set_cmd_vel for many robots in one call (names, or rows of robot_names() as an integer array; one
+        v and w each, or one for all). Returns which commands were clamped; a bad entry changes nothing."""
+        return world_motion.set_cmd_vels(self, robots, v, w)
 
     def emergency_stop(self, name: str) -> None:
         """Brake now, bypassing the acceleration ramp: the command and the drive setpoint drop to zero

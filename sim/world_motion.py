@@ -1,15 +1,18 @@
 """Per-step motion of the world's robots: wheel motors of dynamic robots, unicycle integration of kinematic ones,
-and the physics health check. Kept apart from sim/world.py so World reads as the recipe of a step."""
+the physics health check, and batched velocity commands. Kept apart from sim/world.py so World reads as the
+recipe of a step."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pybullet as p
+from numpy.typing import ArrayLike
 
 from sim.drive import integrate_unicycle, wheel_speeds
-from sim.errors import ErrorCode, FleetError
+from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.kinematic_collisions import resolve_kinematic_collisions
 
 if TYPE_CHECKING:
@@ -67,3 +70,35 @@ def check_physics_health(world: World) -> None:
                                       f"body '{culprit}' has a NaN or exploding state at t={world._time:.3f} s",
                                       "restore a snapshot or reset; check masses, inertias and overlaps")
         raise world.faulted
+
+
+def set_cmd_vels(world: World, robots: Sequence[str] | np.ndarray, v: ArrayLike, w: ArrayLike) -> np.ndarray:
+    """World.set_cmd_vels: validate everything first (a bad entry changes nothing), then one clamped write."""
+    t = world.table
+    if isinstance(robots, np.ndarray) and robots.dtype.kind in "iu":
+        rows = robots.astype(np.int64, copy=False).ravel()
+        bad = (rows < 0) | (rows >= len(t))
+        if bad.any():
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"robot row {int(rows[bad][0])} is out of range",
+                             f"rows index world.robot_names(): 0…{len(t) - 1}")
+    else:
+        index = t._index
+        found = [index.get(n, -1) for n in robots]
+        if -1 in found:
+            raise unknown_name("robot", list(robots)[found.index(-1)], t.names, ErrorCode.UNKNOWN_ROBOT)
+        rows = np.array(found, dtype=np.int64)
+    try:
+        vv, ww = (np.broadcast_to(np.asarray(a, dtype=float), rows.shape) for a in (v, w))
+    except ValueError:
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{rows.size} robots but {np.size(v)} v and {np.size(w)} w",
+                         "pass one v and one w per robot (or one for all)") from None
+    finite = np.isfinite(vv) & np.isfinite(ww)
+    if not finite.all():
+        k = int(np.flatnonzero(~finite)[0])
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"velocity of '{t.names[rows[k]]}' must be finite, "
+                         f"got v={vv[k]}, w={ww[k]}")
+    f = t.f
+    max_v, max_w = f["max_v"][rows], f["max_w"][rows]
+    av, aw = np.clip(vv, -max_v, max_v), np.clip(ww, -max_w, max_w)
+    f["cmd_v"][rows], f["cmd_w"][rows] = av, aw
+    return (av != vv) | (aw != ww)

@@ -137,22 +137,24 @@ def raycast_section(args: argparse.Namespace, console: Console) -> list[CastResu
         r = out[-1]
         console.print(f"  ray casters {n:5d} robots × {beams} beams: embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
                       f"rayTestBatch {r.rays / r.pybullet_s / 1e6:.2f} Mrays/s, {r.ratio:.1f}× wall, "
-                      f"{r.cpu_ratio:.1f}× CPU time; robots rebuilt per cast (before) "
+                      f"{r.cpu_ratio:.1f}× CPU time; bare rays, no layout (before 17c) {r.pybullet_s / r.bare_s:.1f}× "
+                      f"({r.pybullet_cpu_s / r.bare_cpu_s:.1f}× CPU); robots rebuilt per cast (before 17a) "
                       f"{r.pybullet_s / r.rebuild_s:.1f}× (load {os.getloadavg()[0]:.2f})")
     t = Table(title="ray casters on the same lidar rays (one sweep of every robot, alternating backends)")
     for col in ("robots × beams", "rays", "embree ms/cast", "rayTestBatch ms/cast", "embree Mrays/s",
                 "rayTestBatch Mrays/s", "ratio", "CPU ms/cast embree / rTB", "CPU ratio",
-                "before: rebuild ms/cast (ratio, CPU ratio)", "target", "met", "hit/miss agree",
-                "range diff median / p99 mm"):
+                "bare rays ms/cast (ratio, CPU ratio)", "rebuild ms/cast (ratio, CPU ratio)", "target", "met",
+                "hit/miss agree", "range diff median / p99 mm", "layout vs bare: same uid, max mm"):
         t.add_column(col, justify="right")
     for r in out:
         t.add_row(f"{r.robots} × {r.beams}", f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
                   f"{r.rays / r.embree_s / 1e6:.2f}", f"{r.rays / r.pybullet_s / 1e6:.2f}", f"{r.ratio:.1f}×",
                   f"{1e3 * r.embree_cpu_s:.1f} / {1e3 * r.pybullet_cpu_s:.1f}", f"{r.cpu_ratio:.1f}×",
-                  f"{1e3 * r.rebuild_s:.1f} ({r.pybullet_s / r.rebuild_s:.1f}×, "
-                  f"{r.pybullet_cpu_s / r.rebuild_cpu_s:.1f}×)",
+                  *(f"{1e3 * w:.1f} ({r.pybullet_s / w:.1f}×, {r.pybullet_cpu_s / c:.1f}×)"
+                    for w, c in ((r.bare_s, r.bare_cpu_s), (r.rebuild_s, r.rebuild_cpu_s))),
                   f"≥ {LIDAR_RATIO_TARGET:g}×", "yes" if r.ratio >= LIDAR_RATIO_TARGET else "NO",
-                  f"{100 * r.hit_agree:.2f}%", f"{r.median_mm:.4f} / {r.p99_mm:.2f}")
+                  f"{100 * r.hit_agree:.2f}%", f"{r.median_mm:.4f} / {r.p99_mm:.2f}",
+                  f"{100 * r.layout_agree:.2f}%, {r.layout_max_mm:.1e}")
     console.print(t)
     return out
 

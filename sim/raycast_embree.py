@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pybullet as p
 
 from sim import raycast_robots as robots
 from sim import raycast_scene as scene
@@ -65,8 +66,13 @@ class EmbreeCaster:
 
     def _static_scene(self) -> Geometry | None:
         models = self.world.models
-        uids = sorted(u for r in models.records.values() if r.static for u in r.uids)
-        key = (models.version, tuple(uids))
+        statics = [r for r in models.records.values() if r.static]
+        uids = sorted(u for r in statics for u in r.uids)
+        # The static models as they are, not models.version: moving a movable model bumps the version but must
+        # not rebuild the static BVH. A moved static SDF model gets a new description; a URDF one is read back.
+        key = tuple((r.name, id(r), tuple(r.uids), id(r.description) if r.description is not None else
+                     tuple(tuple(p.getBasePositionAndOrientation(u, physicsClientId=models.client)) for u in r.uids))
+                    for r in statics)
         if key != self._static_key:
             meshes = self._mesh_table()
             parts: list[Part] = []
@@ -74,7 +80,7 @@ class EmbreeCaster:
                 shapes = body_shapes(models.client, u, meshes)
                 if shapes:
                     parts.append((shapes, link_matrix(models.client, u, -1)[None], np.array([u])))
-            self._static = scene.commit([scene.build(parts)])  # its BVH is built here, once per model version
+            self._static = scene.commit([scene.build(parts)])  # its BVH is built here, once per static layout
             self._static_key = key
         return self._static
 
@@ -136,7 +142,7 @@ class EmbreeCaster:
         t = w.table
         bodies = [(int(t.body[i]), f"robot:{t.names[i]}:{id(w.specs[t.names[i]])}")
                   for i in (range(len(t)) if self._physics() else np.flatnonzero(~t.b["kinematic"]))]
-        bodies += [(u, f"model:{rec.name}:{w.models.version}") for rec in w.models.records.values()
+        bodies += [(u, f"model:{rec.name}:{id(rec)}") for rec in w.models.records.values()
                    if not rec.static for u in rec.uids]
         groups: dict[int, tuple[list[Shape], list[np.ndarray], list[int]]] = {}
         for uid, label in bodies:

@@ -9,8 +9,11 @@ shape, or meets the back of a convex shape, continues from just past that hit.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -20,6 +23,9 @@ from sim.raycast_shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
 
 MAX_PASSES = 8  # continuations per ray (a ray crossing a proxy needs two)
 STEP_M = 2e-5  # m: how far past a passed-through surface a continued ray starts (> float32 spacing at 100 m)
+THREADS = min(4, os.cpu_count() or 1)  # embreex releases the GIL while it traverses: big casts run in chunks
+CHUNK_MIN = 4096  # rays per chunk below which one thread does it all (a thread hand-off costs ~20 µs)
+_pool: ThreadPoolExecutor | None = None
 
 
 def _embree() -> tuple[Any, Any]:
@@ -43,6 +49,7 @@ class Geometry:
     radius: np.ndarray
     half: np.ndarray
     inv: np.ndarray  # (S, 4, 4) world → shape frame
+    convex: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # (T,) of a convex shape: by commit
 
 
 Part = tuple[list[Shape], np.ndarray, np.ndarray]  # shapes shared by B bodies, base matrices (B, 4, 4), uids (B,)
@@ -99,7 +106,28 @@ def commit(parts: Sequence[Geometry | None]) -> Geometry | None:
         rs, mc = _embree()
         g.scene = rs.EmbreeScene()
         g.handle = mc.TriangleMesh(g.scene, g.verts.astype(np.float32), g.faces.astype(np.int32))
+        g.convex = np.isin(g.kind[g.prim_shape], (BOX, MESH))
+        # The first run commits the scene (builds the BVH): done here, once, before threads share the scene.
+        g.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
     return g
+
+
+def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Embree's nearest triangle per ray: (primID, tfar, Ng). Big batches are split over THREADS threads
+    (the traversal runs without the GIL; a committed Embree scene is safe to share)."""
+    n = len(o32)
+    k = min(THREADS, n // CHUNK_MIN)
+    if k < 2:
+        res = g.scene.run(o32, d32, dists=l32, output=1)
+        return res["primID"], res["tfar"], res["Ng"]
+    global _pool
+    if _pool is None:
+        _pool = ThreadPoolExecutor(THREADS - 1, thread_name_prefix="embree")
+    cuts = np.linspace(0, n, k + 1).astype(int)
+    jobs = [_pool.submit(g.scene.run, o32[a:b], d32[a:b], dists=l32[a:b], output=1)
+            for a, b in pairwise(cuts[1:])]
+    parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)] + [j.result() for j in jobs]
+    return tuple(np.concatenate([r[key] for r in parts]) for key in ("primID", "tfar", "Ng"))
 
 
 def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -108,19 +136,18 @@ def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[
     t_hit = np.full(n, np.inf)
     uid = np.full(n, -1, np.int64)
     o32, d32 = o.astype(np.float32), d.astype(np.float32)
-    res = g.scene.run(o32, d32, dists=limit.astype(np.float32), output=1)  # first pass: every ray, no copies
-    active = np.flatnonzero(res["primID"] >= 0)
-    prim, t_emb, ng = res["primID"][active], res["tfar"][active].astype(np.float64), res["Ng"][active]
+    prim, t32, ng = _run(g, o32, d32, limit.astype(np.float32))  # first pass: every ray
+    active = np.flatnonzero(prim >= 0)
+    prim, t_emb, ng = prim[active], t32[active].astype(np.float64), ng[active]
     off = np.zeros(active.size)
     for k in range(MAX_PASSES):
         shape = g.prim_shape[prim]
         kind = g.kind[shape]
         t = t_emb.copy()
-        convex = (kind == BOX) | (kind == MESH)
-        if convex.any():  # the back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on
-            ci = np.flatnonzero(convex)
-            back = np.einsum("ij,ij->i", ng[ci], d32[active[ci]]) > 0
-            t[ci[back]] = np.inf
+        # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on.
+        da = d32[active]
+        back = g.convex[prim] & (ng[:, 0] * da[:, 0] + ng[:, 1] * da[:, 1] + ng[:, 2] * da[:, 2] > 0)
+        t[back] = np.inf
         curved = (kind >= SPHERE) & (kind <= CAPSULE)
         if curved.any():
             ci = np.flatnonzero(curved)
@@ -140,10 +167,10 @@ def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[
         if active.size == 0:
             break
         oa = (o[active] + off[:, None] * d[active]).astype(np.float32)
-        res = g.scene.run(oa, d32[active], dists=(limit[active] - off).astype(np.float32), output=1)
-        hit = res["primID"] >= 0
+        prim, t32, ng = _run(g, oa, d32[active], (limit[active] - off).astype(np.float32))
+        hit = prim >= 0
         active, off = active[hit], off[hit]
-        prim, t_emb, ng = res["primID"][hit], res["tfar"][hit].astype(np.float64), res["Ng"][hit]
+        prim, t_emb, ng = prim[hit], t32[hit].astype(np.float64), ng[hit]
         if active.size == 0:
             break
     return t_hit, uid

@@ -261,8 +261,7 @@ def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFo
         return
     ray, rob = ray[close], rob[close]
     m = inv[rob]
-    bo = np.einsum("pij,pj->pi", m[:, :, :3], o[ray]) + m[:, :, 3]
-    bd = np.einsum("pij,pj->pi", m[:, :, :3], d[ray])
+    bo, bd = _apply(m, o[ray]) + m[:, :, 3], _apply(m, d[ray])
     t = np.full(ray.size, np.inf)
     for f in forms:
         m = f.inv_local
@@ -271,9 +270,12 @@ def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFo
     if hit.size == 0:
         return
     ray, t, rob = ray[hit], t[hit], rob[hit]
-    first = np.lexsort((t, ray))  # per ray, its nearest body first
-    ray, t, rob = ray[first], t[first], rob[first]
-    lead = np.ones(ray.size, bool)
-    lead[1:] = ray[1:] != ray[:-1]
-    best[ray[lead]] = t[lead]
-    best_uid[ray[lead]] = uid[rob[lead]]
+    np.minimum.at(best, ray, t)  # per ray, its nearest body (a ray may reach several)
+    won = t == best[ray]
+    best_uid[ray[won]] = uid[rob[won]]
+
+
+def _apply(m: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The rotations m[:, :, :3] (P, 3, ·) applied to the vectors v (P, 3), column by column (a batched
+    einsum is several times slower at these sizes)."""
+    return m[:, :, 0] * v[:, :1] + m[:, :, 1] * v[:, 1:2] + m[:, :, 2] * v[:, 2:]

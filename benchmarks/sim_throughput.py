@@ -186,6 +186,9 @@ def main() -> None:
     peer: PeerResult | str | None = None
     casts = raycast_section(args, console) if args.raycast or args.raycast_only else []
     if args.raycast_only:
+        if args.json:
+            args.json.write_text(json.dumps({"raycast": [asdict(c) for c in casts], "load": os.getloadavg()},
+                                            indent=1), encoding="utf-8")
         return
     if args.peer_only:
         peer = peer_run(args, counts[-1], peer_steps, console)

@@ -8,7 +8,8 @@ reported):
 
   embree    the lidar's call: the rays and their layout (one fan per robot, sim/raycast_layout.py)
   bare      Embree on the same bare rays, no layout (it recovers the fans from the rays: the path before 17c)
-  rebuild   Embree with every robot built into a scene per cast (the path before issue 17a), bare rays
+  rebuild   Embree with every moving body built into a scene per cast (the path before issue 17a; with movable
+            models, the path before 17c), bare rays
   pybullet  rayTestBatch on the same rays (it has no use for a layout): the issue's baseline
 
 Agreement is checked on the same rays: hit/miss and, where both hit the same body, range; and the layout's
@@ -17,20 +18,25 @@ result against the bare rays' (the same hits, ranges to float rounding).
 
 from __future__ import annotations
 
+import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
-from _sim_scene import make_scene, robot_spec
+from _sim_scene import Scene, make_scene, robot_spec
 
-from sim import World
+from sim import World, WorldDescription
 from sim.raycast_layout import RayLayout
+from sim.sdf_primitives import box, cylinder, sphere
+from sim.sdf_writer import save_sdf
 
 
 @dataclass
 class CastResult:
     robots: int
     beams: int
+    movable: int  # movable models in the scene (the engine steps; every robot is posed from PyBullet)
     rays: int
     embree_s: float  # wall seconds per cast of all rays (median)
     pybullet_s: float
@@ -55,10 +61,26 @@ class CastResult:
         return self.pybullet_cpu_s / self.embree_cpu_s
 
 
-def lidar_rays(n: int, beams: int) -> tuple[World, np.ndarray, np.ndarray, RayLayout]:
-    """A kinematic world of `n` robots with `beams`-beam lidars and the rays (and layout) of one lidar sweep
-    of all."""
-    world = make_scene(n).world(physics_hz=10.0, fidelity="kinematic", spec=robot_spec(beams))
+def add_movable(world: World, scene: Scene, count: int) -> None:
+    """`count` movable models (boxes, cylinders, spheres; physics moves them) midway between robots."""
+    with tempfile.TemporaryDirectory(prefix="fleetnav_movable_") as tmp:
+        models = []
+        for k, (x, y, _) in enumerate(scene.robots[:count].tolist()):
+            shape = (box(f"m{k}", (0.5, 0.4, 0.5), x, y + 1.5, 0.3 * k), cylinder(f"m{k}", 0.25, 0.7, x, y + 1.5),
+                     sphere(f"m{k}", 0.3, x, y + 1.5))[k % 3]
+            link = replace(shape.links[0], mass=2.0, inertia=(0.1, 0, 0, 0.1, 0, 0.1))
+            models.append(replace(shape, static=False, links=(link,)))
+        path = Path(tmp) / "movable.world"
+        save_sdf(WorldDescription(name="movable", models=tuple(models)), str(path))
+        world.spawn_model(file=str(path))
+
+
+def lidar_rays(n: int, beams: int, movable: int = 0) -> tuple[World, np.ndarray, np.ndarray, RayLayout]:
+    """A kinematic world of `n` robots with `beams`-beam lidars (and `movable` movable models) and the rays
+    (and layout) of one lidar sweep of all."""
+    scene = make_scene(n)
+    world = scene.world(physics_hz=10.0, fidelity="kinematic", spec=robot_spec(beams))
+    add_movable(world, scene, movable)
     seen: list[tuple[np.ndarray, np.ndarray, RayLayout | None]] = []
     cast = world.cast_rays
 
@@ -75,8 +97,8 @@ def lidar_rays(n: int, beams: int) -> tuple[World, np.ndarray, np.ndarray, RayLa
     return world, origins, ends, layout
 
 
-def compare(n: int, beams: int, wall_s: float) -> CastResult:
-    world, o, e, layout = lidar_rays(n, beams)
+def compare(n: int, beams: int, wall_s: float, movable: int = 0) -> CastResult:
+    world, o, e, layout = lidar_rays(n, beams, movable)
     try:
         sides = ("embree", "bare", "rebuild", "pybullet")
         times: dict[str, list[float]] = {k: [] for k in sides}
@@ -111,8 +133,8 @@ def compare(n: int, beams: int, wall_s: float) -> CastResult:
         def cpu_s(side: str) -> float:
             return cpu[side] / len(times[side])
 
-        return CastResult(n, beams, len(o), wall("embree"), wall("pybullet"), cpu_s("embree"), cpu_s("pybullet"),
-                          wall("bare"), cpu_s("bare"), wall("rebuild"), cpu_s("rebuild"),
+        return CastResult(n, beams, movable, len(o), wall("embree"), wall("pybullet"), cpu_s("embree"),
+                          cpu_s("pybullet"), wall("bare"), cpu_s("bare"), wall("rebuild"), cpu_s("rebuild"),
                           float(np.mean((ue >= 0) == (up >= 0))), float(np.median(err)) if err.size else 0.0,
                           float(np.percentile(err, 99)) if err.size else 0.0, float(np.mean(ue == ub)),
                           float(np.max(np.abs(fe - fb) * length)) * 1e3)

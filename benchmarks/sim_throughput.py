@@ -130,12 +130,15 @@ def peer_run(args: argparse.Namespace, n: int, steps: int, console: Console) -> 
 
 
 def raycast_section(args: argparse.Namespace, console: Console) -> list[CastResult]:
-    pairs = [(100, 360), (1000, 90)] if args.quick else [(100, 360), (300, 360), (1000, 90), (1000, 360)]
+    # (robots, beams, movable models): with movable models the engine steps and every body is posed from PyBullet
+    pairs = [(100, 360, 0), (1000, 90, 0)] if args.quick else [(100, 360, 0), (300, 360, 0), (1000, 90, 0),
+                                                               (1000, 360, 0), (100, 360, 20)]
     out = []
-    for n, beams in pairs:
-        out.append(compare(n, beams, 3.0 if args.quick else 10.0))
+    for n, beams, movable in pairs:
+        out.append(compare(n, beams, 3.0 if args.quick else 10.0, movable))
         r = out[-1]
-        console.print(f"  ray casters {n:5d} robots × {beams} beams: embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
+        console.print(f"  ray casters {n:5d} robots × {beams} beams + {movable} movable: "
+                      f"embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
                       f"rayTestBatch {r.rays / r.pybullet_s / 1e6:.2f} Mrays/s, {r.ratio:.1f}× wall, "
                       f"{r.cpu_ratio:.1f}× CPU time; bare rays, no layout (before 17c) {r.pybullet_s / r.bare_s:.1f}× "
                       f"({r.pybullet_cpu_s / r.bare_cpu_s:.1f}× CPU); robots rebuilt per cast (before 17a) "
@@ -147,7 +150,8 @@ def raycast_section(args: argparse.Namespace, console: Console) -> list[CastResu
                 "hit/miss agree", "range diff median / p99 mm", "layout vs bare: same uid, max mm"):
         t.add_column(col, justify="right")
     for r in out:
-        t.add_row(f"{r.robots} × {r.beams}", f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
+        label = f"{r.robots} × {r.beams}" + (f" + {r.movable} movable" if r.movable else "")
+        t.add_row(label, f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
                   f"{r.rays / r.embree_s / 1e6:.2f}", f"{r.rays / r.pybullet_s / 1e6:.2f}", f"{r.ratio:.1f}×",
                   f"{1e3 * r.embree_cpu_s:.1f} / {1e3 * r.pybullet_cpu_s:.1f}", f"{r.cpu_ratio:.1f}×",
                   *(f"{1e3 * w:.1f} ({r.pybullet_s / w:.1f}×, {r.pybullet_cpu_s / c:.1f}×)"

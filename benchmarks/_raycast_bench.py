@@ -63,6 +63,8 @@ class CastResult:
 
 def add_movable(world: World, scene: Scene, count: int) -> None:
     """`count` movable models (boxes, cylinders, spheres; physics moves them) midway between robots."""
+    if count == 0:
+        return
     with tempfile.TemporaryDirectory(prefix="fleetnav_movable_") as tmp:
         models = []
         for k, (x, y, _) in enumerate(scene.robots[:count].tolist()):

@@ -21,7 +21,7 @@ from sim import raycast_robots as robots
 from sim import raycast_scene as scene
 from sim.raycast_layout import RayLayout, layout_groups
 from sim.raycast_scene import Geometry, Part
-from sim.raycast_shapes import Shape, body_shapes, link_matrix
+from sim.raycast_shapes import Shape, body_shapes, link_matrix, link_pose, pose_matrices
 from sim.types import Mesh
 
 if TYPE_CHECKING:
@@ -144,13 +144,21 @@ class EmbreeCaster:
                   for i in (range(len(t)) if self._physics() else np.flatnonzero(~t.b["kinematic"]))]
         bodies += [(u, f"model:{rec.name}:{id(rec)}") for rec in w.models.records.values()
                    if not rec.static for u in rec.uids]
-        groups: dict[int, tuple[list[Shape], list[np.ndarray], list[int]]] = {}
+        groups: dict[int, tuple[list[Shape], list[int], list[int]]] = {}
+        pos: list[tuple[float, ...]] = []
+        quat: list[tuple[float, ...]] = []
         for uid, label in bodies:
             for link, shapes in self._links(uid, label).items():
                 entry = groups.setdefault(id(shapes), (shapes, [], []))
-                entry[1].append(link_matrix(w.client, uid, link))
+                entry[1].append(len(pos))
                 entry[2].append(uid)
-        return [(shapes, np.stack(ms), np.asarray(us, np.int64)) for shapes, ms, us in groups.values() if shapes]
+                xyz, q = link_pose(w.client, uid, link)
+                pos.append(xyz)
+                quat.append(q)
+        if not pos:
+            return []
+        mats = pose_matrices(np.asarray(pos), np.asarray(quat))  # one numpy pass over every link
+        return [(shapes, mats[at], np.asarray(us, np.int64)) for shapes, at, us in groups.values() if shapes]
 
     def _form(self, shapes: list[Shape]) -> list[robots.ShapeForm]:
         if id(shapes) not in self._forms:

@@ -15,7 +15,7 @@ that starts inside a shape does not see it (as in Bullet and the Embree path).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
@@ -43,6 +43,7 @@ class ShapeForm:
     plan_radius: float  # farthest point of the shape from the base's z axis
     z_range: tuple[float, float]  # in the base frame
     reach: float  # farthest point of the shape from the base's origin (any orientation)
+    own_reach: float  # farthest point of the shape from its own frame's origin
 
 
 def shape_form(s: Shape) -> ShapeForm:
@@ -50,7 +51,8 @@ def shape_form(s: Shape) -> ShapeForm:
     half = np.abs(s.verts).max(axis=0) if s.kind == BOX else np.zeros(3)
     planes = ConvexHull(s.verts).equations if s.kind == MESH else np.zeros((0, 4))
     return ShapeForm(s.kind, np.linalg.inv(s.local), float(s.radius), float(s.half_length), half, planes,
-                     float(np.hypot(pts[:, 0], pts[:, 1]).max()), s.z_range, float(np.linalg.norm(pts, axis=1).max()))
+                     float(np.hypot(pts[:, 0], pts[:, 1]).max()), s.z_range, float(np.linalg.norm(pts, axis=1).max()),
+                     float(np.linalg.norm(s.verts, axis=1).max()))
 
 
 def supported(shapes: list[Shape]) -> bool:
@@ -231,18 +233,19 @@ def cast_upright(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeF
 def cast_posed(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeForm], frames: np.ndarray,
                uid: np.ndarray, z_band: tuple[float, float], best: np.ndarray, best_uid: np.ndarray) -> None:
     """cast_upright for bodies in any orientation: `frames` (B, 4, 4) world ← body (a link's pose read from the
-    engine). A body counts by the sphere about its origin holding its shapes, whose plan is a disc."""
-    if not forms or len(frames) == 0:
-        return
-    rho = max(f.reach for f in forms)
-    z = frames[:, 2, 3]
-    keep = np.flatnonzero((z + rho >= z_band[0]) & (z - rho <= z_band[1]))
-    if keep.size == 0:
-        return
-    frames, uid = frames[keep], uid[keep]
-    rt = frames[:, :3, :3].transpose(0, 2, 1)
-    inv = np.concatenate([rt, -np.einsum("bij,bj->bi", rt, frames[:, :3, 3])[:, :, None]], axis=2)
-    cast_bodies(rg, o, d, forms, inv, frames[:, :2, 3], rho, uid, best, best_uid)
+    engine). Shape by shape: each counts by the sphere about its own frame holding it, whose plan is a disc,
+    and only where that sphere reaches the rays' heights (a lidar's rays miss a robot's chassis and mast)."""
+    for f in forms:
+        shape = frames @ np.linalg.inv(f.inv_local)  # world ← shape frame
+        z = shape[:, 2, 3]
+        keep = np.flatnonzero((z + f.own_reach >= z_band[0]) & (z - f.own_reach <= z_band[1]))
+        if keep.size == 0:
+            continue
+        shape = shape[keep]
+        rt = shape[:, :3, :3].transpose(0, 2, 1)
+        inv = np.concatenate([rt, -np.einsum("bij,bj->bi", rt, shape[:, :3, 3])[:, :, None]], axis=2)
+        cast_bodies(rg, o, d, [replace(f, inv_local=np.eye(4))], inv, shape[:, :2, 3], f.own_reach, uid[keep],
+                    best, best_uid)
 
 
 def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeForm], inv: np.ndarray,

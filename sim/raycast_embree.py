@@ -243,6 +243,7 @@ class EmbreeCaster:
         uids = np.full(len(o), -1, np.int64)
         if len(o) == 0:
             return np.ones(0), np.full(0, -1, np.int64)
+        rg = layout_groups(layout, o, d) if layout is not None else None  # checks the layout describes the rays
         if layout is not None:  # a lidar's fans: horizontal rays at the fans' heights
             z_band = (float(layout.z.min()), float(layout.z.max()))
         else:
@@ -253,7 +254,7 @@ class EmbreeCaster:
         posed = [(self._form(shapes), mats, us) for shapes, mats, us in moving
                  if self.closed_form and robots.supported(shapes)]
         if upright or posed:  # moving bodies first: their hits shorten the rays the BVH traverses
-            rg = layout_groups(layout, o, d) if layout is not None else robots.group_rays(o, d)
+            rg = robots.group_rays(o, d) if rg is None else rg
             t = self.world.table
             pose = np.column_stack([t.f["x"], t.f["y"], t.f["yaw"]])
             for forms, rows in upright:

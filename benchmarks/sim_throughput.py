@@ -143,29 +143,35 @@ def peer_run(args: argparse.Namespace, n: int, steps: int, console: Console) -> 
 
 
 def raycast_section(args: argparse.Namespace, console: Console) -> list[CastResult]:
-    pairs = [(100, 360), (1000, 90)] if args.quick else [(100, 360), (300, 360), (1000, 90), (1000, 360)]
+    # (robots, beams, movable models): with movable models the engine steps and every body is posed from PyBullet
+    pairs = [(100, 360, 0), (1000, 90, 0)] if args.quick else [(100, 360, 0), (300, 360, 0), (1000, 90, 0),
+                                                               (1000, 360, 0), (100, 360, 20)]
     out = []
-    for n, beams in pairs:
-        out.append(compare(n, beams, 3.0 if args.quick else 10.0))
+    for n, beams, movable in pairs:
+        out.append(compare(n, beams, 3.0 if args.quick else 10.0, movable))
         r = out[-1]
-        console.print(f"  ray casters {n:5d} robots × {beams} beams: embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
+        console.print(f"  ray casters {n:5d} robots × {beams} beams + {movable} movable: "
+                      f"embree {r.rays / r.embree_s / 1e6:.2f} Mrays/s, "
                       f"rayTestBatch {r.rays / r.pybullet_s / 1e6:.2f} Mrays/s, {r.ratio:.1f}× wall, "
-                      f"{r.cpu_ratio:.1f}× CPU time; robots rebuilt per cast (before) "
+                      f"{r.cpu_ratio:.1f}× CPU time; bare rays, no layout (before 17c) {r.pybullet_s / r.bare_s:.1f}× "
+                      f"({r.pybullet_cpu_s / r.bare_cpu_s:.1f}× CPU); robots rebuilt per cast (before 17a) "
                       f"{r.pybullet_s / r.rebuild_s:.1f}× (load {os.getloadavg()[0]:.2f})")
     t = Table(title="ray casters on the same lidar rays (one sweep of every robot, alternating backends)")
     for col in ("robots × beams", "rays", "embree ms/cast", "rayTestBatch ms/cast", "embree Mrays/s",
                 "rayTestBatch Mrays/s", "ratio", "CPU ms/cast embree / rTB", "CPU ratio",
-                "before: rebuild ms/cast (ratio, CPU ratio)", "target", "met", "hit/miss agree",
-                "range diff median / p99 mm"):
+                "bare rays ms/cast (ratio, CPU ratio)", "rebuild ms/cast (ratio, CPU ratio)", "target", "met",
+                "hit/miss agree", "range diff median / p99 mm", "layout vs bare: same uid, max mm"):
         t.add_column(col, justify="right")
     for r in out:
-        t.add_row(f"{r.robots} × {r.beams}", f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
+        label = f"{r.robots} × {r.beams}" + (f" + {r.movable} movable" if r.movable else "")
+        t.add_row(label, f"{r.rays:,}", f"{1e3 * r.embree_s:.1f}", f"{1e3 * r.pybullet_s:.1f}",
                   f"{r.rays / r.embree_s / 1e6:.2f}", f"{r.rays / r.pybullet_s / 1e6:.2f}", f"{r.ratio:.1f}×",
                   f"{1e3 * r.embree_cpu_s:.1f} / {1e3 * r.pybullet_cpu_s:.1f}", f"{r.cpu_ratio:.1f}×",
-                  f"{1e3 * r.rebuild_s:.1f} ({r.pybullet_s / r.rebuild_s:.1f}×, "
-                  f"{r.pybullet_cpu_s / r.rebuild_cpu_s:.1f}×)",
+                  *(f"{1e3 * w:.1f} ({r.pybullet_s / w:.1f}×, {r.pybullet_cpu_s / c:.1f}×)"
+                    for w, c in ((r.bare_s, r.bare_cpu_s), (r.rebuild_s, r.rebuild_cpu_s))),
                   f"≥ {LIDAR_RATIO_TARGET:g}×", "yes" if r.ratio >= LIDAR_RATIO_TARGET else "NO",
-                  f"{100 * r.hit_agree:.2f}%", f"{r.median_mm:.4f} / {r.p99_mm:.2f}")
+                  f"{100 * r.hit_agree:.2f}%", f"{r.median_mm:.4f} / {r.p99_mm:.2f}",
+                  f"{100 * r.layout_agree:.2f}%, {r.layout_max_mm:.1e}")
     console.print(t)
     return out
 
@@ -197,6 +203,9 @@ def main() -> None:
     peer: PeerResult | str | None = None
     casts = raycast_section(args, console) if args.raycast or args.raycast_only else []
     if args.raycast_only:
+        if args.json:
+            args.json.write_text(json.dumps({"raycast": [asdict(c) for c in casts], "load": os.getloadavg()},
+                                            indent=1), encoding="utf-8")
         return
     if args.peer_only:
         peer = peer_run(args, counts[-1], peer_steps, console)

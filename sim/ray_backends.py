@@ -13,6 +13,7 @@ import pybullet as p
 from sim.errors import ErrorCode, FleetError, unknown_name
 
 if TYPE_CHECKING:
+    from sim.raycast_layout import RayLayout
     from sim.world import World
 
 MAX_RAYS_PER_CALL = 16_000  # rayTestBatch returns nothing at exactly 16,384 rays and raises above it
@@ -33,15 +34,17 @@ class RayBackends:
             raise unknown_name("ray caster", name, RAYCASTERS, ErrorCode.INVALID_ARGUMENT)
         self.name = name
 
-    def cast(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(hit fraction in [0, 1], body uid or -1) per ray, by the selected backend."""
+    def cast(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None = None
+             ) -> tuple[np.ndarray, np.ndarray]:
+        """(hit fraction in [0, 1], body uid or -1) per ray, by the selected backend. `layout` describes how
+        the rays were built (a lidar's fans); rayTestBatch does not use it."""
         if self.name == "embree":
             if self.embree is None:
                 from sim.raycast_embree import EmbreeCaster
 
                 self.embree = EmbreeCaster(self.world)
             try:
-                return self.embree.cast(origins, ends)
+                return self.embree.cast(origins, ends, layout)
             except FleetError as exc:  # geometry Embree cannot read back (a concave mesh with no file): the
                 if exc.code is not ErrorCode.UNSUPPORTED:  # reference caster serves this world instead
                     raise

@@ -15,7 +15,7 @@ that starts inside a shape does not see it (as in Bullet and the Embree path).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
@@ -42,6 +42,8 @@ class ShapeForm:
     planes: np.ndarray  # convex mesh: (F, 4) outward unit normal and offset, inside where n·x + c ≤ 0
     plan_radius: float  # farthest point of the shape from the base's z axis
     z_range: tuple[float, float]  # in the base frame
+    reach: float  # farthest point of the shape from the base's origin (any orientation)
+    own_reach: float  # farthest point of the shape from its own frame's origin
 
 
 def shape_form(s: Shape) -> ShapeForm:
@@ -49,7 +51,8 @@ def shape_form(s: Shape) -> ShapeForm:
     half = np.abs(s.verts).max(axis=0) if s.kind == BOX else np.zeros(3)
     planes = ConvexHull(s.verts).equations if s.kind == MESH else np.zeros((0, 4))
     return ShapeForm(s.kind, np.linalg.inv(s.local), float(s.radius), float(s.half_length), half, planes,
-                     float(np.hypot(pts[:, 0], pts[:, 1]).max()), s.z_range)
+                     float(np.hypot(pts[:, 0], pts[:, 1]).max()), s.z_range, float(np.linalg.norm(pts, axis=1).max()),
+                     float(np.linalg.norm(s.verts, axis=1).max()))
 
 
 def supported(shapes: list[Shape]) -> bool:
@@ -219,11 +222,40 @@ def cast_upright(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeF
     forms = [f for f in forms if f.z_range[1] >= z_band[0] and f.z_range[0] <= z_band[1]]
     if not forms or len(pose) == 0:
         return
-    rho = max(f.plan_radius for f in forms)
-    ray, rob = _pairs(rg, pose[:, :2], rho)
-    # Exactly: keep the pairs whose segment passes within ρ of the robot's axis (in the plan).
+    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+    inv = np.zeros((len(pose), 3, 4))  # world → base: the transpose rotation, then minus the rotated position
+    inv[:, 0, 0], inv[:, 0, 1], inv[:, 1, 0], inv[:, 1, 1], inv[:, 2, 2] = c, s, -s, c, 1.0
+    inv[:, 0, 3] = -(c * pose[:, 0] + s * pose[:, 1])
+    inv[:, 1, 3] = s * pose[:, 0] - c * pose[:, 1]
+    cast_bodies(rg, o, d, forms, inv, pose[:, :2], max(f.plan_radius for f in forms), uid, best, best_uid)
+
+
+def cast_posed(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeForm], frames: np.ndarray,
+               uid: np.ndarray, z_band: tuple[float, float], best: np.ndarray, best_uid: np.ndarray) -> None:
+    """cast_upright for bodies in any orientation: `frames` (B, 4, 4) world ← body (a link's pose read from the
+    engine). Shape by shape: each counts by the sphere about its own frame holding it, whose plan is a disc,
+    and only where that sphere reaches the rays' heights (a lidar's rays miss a robot's chassis and mast)."""
+    for f in forms:
+        shape = frames @ np.linalg.inv(f.inv_local)  # world ← shape frame
+        z = shape[:, 2, 3]
+        keep = np.flatnonzero((z + f.own_reach >= z_band[0]) & (z - f.own_reach <= z_band[1]))
+        if keep.size == 0:
+            continue
+        shape = shape[keep]
+        rt = shape[:, :3, :3].transpose(0, 2, 1)
+        inv = np.concatenate([rt, -np.einsum("bij,bj->bi", rt, shape[:, :3, 3])[:, :, None]], axis=2)
+        cast_bodies(rg, o, d, [replace(f, inv_local=np.eye(4))], inv, shape[:, :2, 3], f.own_reach, uid[keep],
+                    best, best_uid)
+
+
+def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeForm], inv: np.ndarray,
+                xy: np.ndarray, rho: float, uid: np.ndarray, best: np.ndarray, best_uid: np.ndarray) -> None:
+    """The rays' nearest hits on bodies sharing the shapes `forms`: `inv` (B, 3, 4) world → body, `xy` (B, 2)
+    where each body's shapes lie within `rho` in the plan."""
+    ray, rob = _pairs(rg, xy, rho)
+    # Exactly: keep the pairs whose segment passes within ρ of the body's axis (in the plan).
     dx, dy = d[ray, 0], d[ray, 1]
-    rx, ry = pose[rob, 0] - o[ray, 0], pose[rob, 1] - o[ray, 1]
+    rx, ry = xy[rob, 0] - o[ray, 0], xy[rob, 1] - o[ray, 1]
     dd = dx * dx + dy * dy
     u = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
     ex, ey = rx - u * dx, ry - u * dy
@@ -231,11 +263,8 @@ def cast_upright(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeF
     if close.size == 0:
         return
     ray, rob = ray[close], rob[close]
-    c, s = np.cos(pose[rob, 2]), np.sin(pose[rob, 2])
-    rel = o[ray, :2] - pose[rob, :2]
-    bo = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], o[ray, 2]])
-    dr = d[ray]
-    bd = np.column_stack([c * dr[:, 0] + s * dr[:, 1], -s * dr[:, 0] + c * dr[:, 1], dr[:, 2]])
+    m = inv[rob]
+    bo, bd = _apply(m, o[ray]) + m[:, :, 3], _apply(m, d[ray])
     t = np.full(ray.size, np.inf)
     for f in forms:
         m = f.inv_local
@@ -244,9 +273,12 @@ def cast_upright(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeF
     if hit.size == 0:
         return
     ray, t, rob = ray[hit], t[hit], rob[hit]
-    first = np.lexsort((t, ray))  # per ray, its nearest robot first
-    ray, t, rob = ray[first], t[first], rob[first]
-    lead = np.ones(ray.size, bool)
-    lead[1:] = ray[1:] != ray[:-1]
-    best[ray[lead]] = t[lead]
-    best_uid[ray[lead]] = uid[rob[lead]]
+    np.minimum.at(best, ray, t)  # per ray, its nearest body (a ray may reach several)
+    won = t == best[ray]
+    best_uid[ray[won]] = uid[rob[won]]
+
+
+def _apply(m: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The rotations m[:, :, :3] (P, 3, ·) applied to the vectors v (P, 3), column by column (a batched
+    einsum is several times slower at these sizes)."""
+    return m[:, :, 0] * v[:, :1] + m[:, :, 1] * v[:, 1:2] + m[:, :, 2] * v[:, 2:]

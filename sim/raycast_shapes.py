@@ -56,6 +56,27 @@ def pose_matrix(pos: tuple[float, ...] | np.ndarray, orn: tuple[float, ...] | np
     return m
 
 
+def pose_matrices(pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """(N, 4, 4) poses from positions (N, 3) and unit quaternions (N, 4, x y z w as PyBullet gives them), in
+    one pass (pose_matrix per body costs ~15 µs of Python)."""
+    x, y, z, w = np.asarray(quat, np.float64).T
+    m = np.zeros((len(x), 4, 4))
+    m[:, 0, 0], m[:, 0, 1], m[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    m[:, 1, 0], m[:, 1, 1], m[:, 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    m[:, 2, 0], m[:, 2, 1], m[:, 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    m[:, :3, 3] = pos
+    m[:, 3, 3] = 1.0
+    return m
+
+
+def link_pose(client: int, uid: int, link: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """World position and quaternion of a link's inertial frame."""
+    if link < 0:
+        return p.getBasePositionAndOrientation(uid, physicsClientId=client)
+    st = p.getLinkState(uid, link, computeForwardKinematics=1, physicsClientId=client)
+    return st[0], st[1]
+
+
 def link_matrix(client: int, uid: int, link: int) -> np.ndarray:
     """World pose of a link's inertial frame (the frame collision shapes are given in)."""
     if link < 0:

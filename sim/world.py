@@ -20,6 +20,7 @@ from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.kinematic_collisions import RawContact
 from sim.models import ModelRegistry
 from sim.ray_backends import RayBackends, cast_pybullet
+from sim.raycast_layout import RayLayout
 from sim.robot_body import RobotBody
 from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
 from sim.robot_table import RobotTable
@@ -259,9 +260,11 @@ class World:
     def raycaster(self) -> str:
         return self.rays.name
 
-    def cast_rays(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Batched ray cast: (hit fraction in [0, 1], body uid or -1) per ray, by the selected backend."""
-        return self.rays.cast(origins, ends)
+    def cast_rays(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Batched ray cast: (hit fraction in [0, 1], body uid or -1) per ray, by the selected backend;
+        `layout` (a lidar's fans, sim/raycast_layout.py) spares Embree recovering them from the rays."""
+        return self.rays.cast(origins, ends, layout)
 
     def cast_rays_pybullet(self, origins: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """PyBullet rayTestBatch, split into ≤16,000-ray calls."""

@@ -1,19 +1,26 @@
-"""2D lidar: every due robot's beams go into one batched ray cast (split ≤ 16,000 rays per call); ranges,
-noise and validity are computed over all rays at once."""
+"""2D lidar: every due robot's beams go into one batched ray cast (split ≤ 16,000 rays per call), with their
+layout (one fan per robot: centre, first heading, step, ranges) so the caster need not recover it from the
+rays; ranges, noise and validity are computed over all rays at once."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
+from sim.raycast_layout import RayLayout
 from sim.robot_spec import RobotSpec
 from sim.robot_table import RobotTable
 from sim.types import LidarScan
 
-RayCaster = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+class RayCaster(Protocol):
+    """World.cast_rays: (fraction, uid) per ray; `layout` describes the rays (a backend may ignore it)."""
+
+    def __call__(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 @dataclass(frozen=True)
@@ -62,6 +69,7 @@ def cast_scans(table: RobotTable, rows: np.ndarray, configs: list[LidarConfig], 
     n_rays = sum(int(configs[int(rows[ks[0]])].angles.size) * ks.size for ks in groups)
     origins, ends = np.empty((n_rays, 3)), np.empty((n_rays, 3))
     spans = np.zeros((rows.size, 2), dtype=np.int64)
+    fan = np.empty((rows.size, 7))  # per robot: centre x, y, z, first heading, step, range_min, range_max
     start = 0
     for ks in groups:
         idx = rows[ks]
@@ -80,11 +88,17 @@ def cast_scans(table: RobotTable, rows: np.ndarray, configs: list[LidarConfig], 
             out[block, 2] = cfg.height
         spans[ks, 0] = start + nb * np.arange(idx.size)
         spans[ks, 1] = spans[ks, 0] + nb
+        fan[ks] = np.column_stack([ox[:, 0], oy[:, 0], np.full(idx.size, cfg.height), yaw + float(cfg.angles[0]),
+                                   np.full(idx.size, cfg.angle_increment), np.full(idx.size, cfg.range_min),
+                                   np.full(idx.size, cfg.range_max)])
         start += nb * idx.size
-    fractions, uids = cast(origins, ends)
-    # Ranges, noise and validity for every ray at once; only the scan objects are per robot.
     beams = spans[:, 1] - spans[:, 0]
     by_start = np.argsort(spans[:, 0], kind="stable")  # the robots' ray blocks in ray order
+    fs = fan[by_start]
+    layout = RayLayout(spans[by_start, 0], beams[by_start], fs[:, 0], fs[:, 1], fs[:, 2], fs[:, 3], fs[:, 4],
+                       fs[:, 5], fs[:, 6])
+    fractions, uids = cast(origins, ends, layout=layout)
+    # Ranges, noise and validity for every ray at once; only the scan objects are per robot.
     ray_k = np.repeat(by_start, beams[by_start])
     rmin = np.array([c.range_min for c in cfgs])[ray_k]
     rmax = np.array([c.range_max for c in cfgs])[ray_k]

@@ -1,0 +1,194 @@
+"""Embree scenes of ray-casting geometry and the cast through them (sim/raycast_embree.py decides which bodies
+go into which scene): triangles in world coordinates, a shape index per triangle, and per shape its kind, body
+uid and world → shape frame for the closed-form refinement of curved shapes.
+
+Boxes, meshes and planes are exact triangles; cylinders, spheres and capsules are enclosing proxies whose hits
+are refined analytically (sim/raycast_exact.py) in float64. A ray that passes a proxy without touching the
+shape, or meets the back of a convex shape, continues from just past that hit.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from itertools import pairwise
+from typing import Any
+
+import numpy as np
+
+from sim import raycast_exact as exact
+from sim.raycast_shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
+
+MAX_PASSES = 8  # continuations per ray (a ray crossing a proxy needs two)
+STEP_M = 2e-5  # m: how far past a passed-through surface a continued ray starts (> float32 spacing at 100 m)
+THREADS = min(4, os.cpu_count() or 1)  # embreex releases the GIL while it traverses: big casts run in chunks
+# Rays per chunk below which one thread does it all: a hand-off costs ~20 µs idle, and on a loaded machine the
+# second thread waits for a core (100 robots × 90 beams, 9,000 rays: no gain at load 4, so it is not split).
+CHUNK_MIN = 16384
+_pool: ThreadPoolExecutor | None = None
+
+
+def _embree() -> tuple[Any, Any]:
+    import embreex.mesh_construction as mc
+    import embreex.rtcore_scene as rs
+
+    return rs, mc
+
+
+@dataclass
+class Geometry:
+    """One Embree scene and what its primitives are, in world coordinates."""
+
+    scene: Any
+    handle: Any
+    verts: np.ndarray  # (V, 3) float64
+    faces: np.ndarray  # (T, 3), wound outward for convex kinds
+    prim_shape: np.ndarray  # (T,) shape index
+    kind: np.ndarray  # per shape
+    uid: np.ndarray
+    radius: np.ndarray
+    half: np.ndarray
+    inv: np.ndarray  # (S, 4, 4) world → shape frame
+    convex: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # (T,) of a convex shape: by commit
+
+
+Part = tuple[list[Shape], np.ndarray, np.ndarray]  # shapes shared by B bodies, base matrices (B, 4, 4), uids (B,)
+
+
+def build(parts: list[Part], z_band: tuple[float, float] | None = None) -> Geometry | None:
+    """A scene from groups of bodies sharing one shape set. Shape index order is group by group,
+    body-major. With `z_band` (bases that only turn about z), shapes entirely above or below it are left out:
+    no ray of this cast can reach them."""
+    verts, faces, prim, frames, kind, uid, radius, half = [], [], [], [], [], [], [], []
+    n_verts = start = 0
+    for shapes, bases, uids in parts:
+        if z_band is not None:
+            shapes = [s for s in shapes if s.z_range[1] >= z_band[0] and s.z_range[0] <= z_band[1]]
+        n_s, n_b = len(shapes), len(bases)
+        if n_s == 0 or n_b == 0:
+            continue
+        for j, s in enumerate(shapes):
+            frame = bases @ s.local  # (B, 4, 4)
+            pts = np.matmul(s.verts[None], frame[:, :3, :3].transpose(0, 2, 1)) + frame[:, None, :3, 3]
+            verts.append(pts.reshape(-1, 3))
+            v = len(s.verts)
+            faces.append((s.faces[None] + (n_verts + v * np.arange(n_b))[:, None, None]).reshape(-1, 3))
+            n_verts += v * n_b
+            prim.append(np.repeat(start + np.arange(n_b) * n_s + j, len(s.faces)))
+        frames.append(np.stack([bases @ s.local for s in shapes], axis=1).reshape(-1, 4, 4))
+        kind.append(np.tile([s.kind for s in shapes], n_b))
+        uid.append(np.repeat(uids, n_s))
+        radius.append(np.tile([s.radius for s in shapes], n_b))
+        half.append(np.tile([s.half_length for s in shapes], n_b))
+        start += n_s * n_b
+    if start == 0:
+        return None
+    return Geometry(None, None, np.concatenate(verts), np.concatenate(faces), np.concatenate(prim),
+                    np.concatenate(kind), np.concatenate(uid).astype(np.int64), np.concatenate(radius).astype(float),
+                    np.concatenate(half).astype(float), np.linalg.inv(np.concatenate(frames)))
+
+
+def commit(parts: Sequence[Geometry | None]) -> Geometry | None:
+    """One Embree scene over several geometries (their arrays concatenated)."""
+    gs = [g for g in parts if g is not None]
+    if not gs:
+        return None
+    if len(gs) == 1:
+        g = gs[0]
+    else:
+        v_off = np.cumsum([0] + [len(g.verts) for g in gs[:-1]])
+        s_off = np.cumsum([0] + [len(g.kind) for g in gs[:-1]])
+        g = Geometry(None, None, np.concatenate([g.verts for g in gs]),
+                     np.concatenate([g.faces + o for g, o in zip(gs, v_off, strict=True)]),
+                     np.concatenate([g.prim_shape + o for g, o in zip(gs, s_off, strict=True)]),
+                     *(np.concatenate([getattr(g, k) for g in gs]) for k in ("kind", "uid", "radius", "half", "inv")))
+    if g.scene is None:
+        rs, mc = _embree()
+        g.scene = rs.EmbreeScene()
+        g.handle = mc.TriangleMesh(g.scene, g.verts.astype(np.float32), g.faces.astype(np.int32))
+        g.convex = np.isin(g.kind[g.prim_shape], (BOX, MESH))
+        # The first run commits the scene (builds the BVH): done here, once, before threads share the scene.
+        g.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+    return g
+
+
+def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Embree's nearest triangle per ray: (primID, tfar, Ng). Big batches are split over THREADS threads
+    (the traversal runs without the GIL; a committed Embree scene is safe to share)."""
+    n = len(o32)
+    k = min(THREADS, n // CHUNK_MIN)
+    if k < 2:
+        res = g.scene.run(o32, d32, dists=l32, output=1)
+        return res["primID"], res["tfar"], res["Ng"]
+    global _pool
+    if _pool is None:
+        _pool = ThreadPoolExecutor(THREADS - 1, thread_name_prefix="embree")
+    cuts = np.linspace(0, n, k + 1).astype(int)
+    jobs = [_pool.submit(g.scene.run, o32[a:b], d32[a:b], dists=l32[a:b], output=1)
+            for a, b in pairwise(cuts[1:])]
+    parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)] + [j.result() for j in jobs]
+    return tuple(np.concatenate([r[key] for r in parts]) for key in ("primID", "tfar", "Ng"))
+
+
+def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest true hit per ray in one scene closer than `limit`: (t in units of d, inf if none; uid or -1)."""
+    n = len(o)
+    t_hit = np.full(n, np.inf)
+    uid = np.full(n, -1, np.int64)
+    o32, d32 = o.astype(np.float32), d.astype(np.float32)
+    prim, t32, ng = _run(g, o32, d32, limit.astype(np.float32))  # first pass: every ray
+    active = np.flatnonzero(prim >= 0)
+    prim, t_emb, ng = prim[active], t32[active].astype(np.float64), ng[active]
+    off = np.zeros(active.size)
+    for k in range(MAX_PASSES):
+        shape = g.prim_shape[prim]
+        kind = g.kind[shape]
+        t = t_emb.copy()
+        # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on.
+        da = d32[active]
+        back = g.convex[prim] & (ng[:, 0] * da[:, 0] + ng[:, 1] * da[:, 1] + ng[:, 2] * da[:, 2] > 0)
+        t[back] = np.inf
+        curved = (kind >= SPHERE) & (kind <= CAPSULE)
+        if curved.any():
+            ci = np.flatnonzero(curved)
+            sub = active[ci]
+            t[ci] = _refine(g, shape[ci], kind[ci], o[sub] + off[ci, None] * d[sub], d[sub])
+        done = np.isfinite(t)
+        rows = active[done]
+        t_hit[rows] = off[done] + t[done]
+        uid[rows] = g.uid[shape[done]]
+        if done.all() or k == MAX_PASSES - 1:
+            break
+        passed = ~done
+        active, off = active[passed], off[passed] + t_emb[passed]
+        off += STEP_M / np.linalg.norm(d[active], axis=1)
+        keep = off < limit[active]
+        active, off = active[keep], off[keep]
+        if active.size == 0:
+            break
+        oa = (o[active] + off[:, None] * d[active]).astype(np.float32)
+        prim, t32, ng = _run(g, oa, d32[active], (limit[active] - off).astype(np.float32))
+        hit = prim >= 0
+        active, off = active[hit], off[hit]
+        prim, t_emb, ng = prim[hit], t32[hit].astype(np.float64), ng[hit]
+        if active.size == 0:
+            break
+    return t_hit, uid
+
+
+def _refine(g: Geometry, shape: np.ndarray, kind: np.ndarray, o: np.ndarray, d: np.ndarray) -> np.ndarray:
+    inv = g.inv[shape]
+    lo = np.einsum("bij,bj->bi", inv[:, :3, :3], o) + inv[:, :3, 3]
+    ld = np.einsum("bij,bj->bi", inv[:, :3, :3], d)
+    r, h = g.radius[shape], g.half[shape]
+    t = np.full(len(o), np.inf)
+    for k, fn in ((SPHERE, None), (CYLINDER, exact.cylinder), (CAPSULE, exact.capsule)):
+        m = kind == k
+        if m.any():
+            t[m] = exact.sphere(lo[m], ld[m], r[m]) if fn is None else fn(lo[m], ld[m], r[m], h[m])
+    return t
+
+
+__all__ = ["Geometry", "Part", "build", "cast", "commit"]

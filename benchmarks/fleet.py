@@ -48,8 +48,9 @@ NAVIGATION = {"controller": {"type": "pure_pursuit", "desired_linear_vel": 0.6},
               "planner": {"type": "guided_theta_star"}}
 LIDAR = {"beams": 90, "rate_hz": 5.0}  # the navigators' reactive layer still sees obstacles; 8x fewer rays
 RULES: dict[str, dict[str, Any]] = {  # traffic layer: the rules against long waits, off (old) and on (new)
-    "old": {"urgent_s": None, "yield_aside": False, "highway": 1.0, "lane_cost": 1.0},
-    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0}}
+    "old": {"urgent_s": None, "yield_aside": False, "highway": 1.0, "lane_cost": 1.0, "push_frozen": False},
+    "l3": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": False},
+    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": True}}
 LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
 LIDAR_OFF = {"enabled": False}
 
@@ -165,8 +166,9 @@ def main() -> None:
     ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
                     help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
     ap.add_argument("--rule", nargs="*", choices=tuple(RULES), default=["new"],
-                    help="traffic layer: rules against long waits, one run each: old = none; new = lanes "
-                         "(highway 4, lane_cost 3), aging (urgent after 12 s without progress), yield aside")
+                    help="traffic layer: rules against long waits, one run each: old = none; l3 = the third "
+                         "landing's (lanes: highway 4, lane_cost 3; aging: urgent after 12 s without progress; "
+                         "yield aside); new = l3 and robots with a full window can still be pushed")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()

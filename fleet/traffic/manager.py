@@ -56,7 +56,8 @@ class TrafficManager:
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
                  stall_s: float = 10.0, window: int = 2, lane_cost: float = 3.0,
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
-                 yield_aside: bool = True, highway: float = 4.0, record: bool = False) -> None:
+                 yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
+                 record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -84,6 +85,7 @@ class TrafficManager:
         if not (math.isfinite(highway) and highway >= 1.0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic highway must be ≥ 1 (1: no lanes), got {highway}")
         self.pibt.yield_aside = yield_aside
+        self.pibt.push_frozen = push_frozen
         self.window = window
         self.names: list[str] = []
         self._idx: dict[str, int] = {}

@@ -27,7 +27,7 @@ TOUCH_M = 1e-3  # footprint circles closer than this count as touching
 
 
 def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 1.0, speed: float = 0.8,
-                physics_hz: float = 50.0, window: int = 2, lidar: str = "360 beams 10 Hz",
+                physics_hz: float = 50.0, window: int = 1, lidar: str = "360 beams 10 Hz",
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,

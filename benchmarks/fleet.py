@@ -162,7 +162,7 @@ def main() -> None:
     ap.add_argument("--traffic-only", action="store_true", help="only the traffic-layer runs")
     ap.add_argument("--traffic-lidar", nargs="*", choices=("on", "off"), default=["on"],
                     help="traffic-layer runs with the 360-beam lidar on, off, or both (default on)")
-    ap.add_argument("--window", type=int, default=2, help="traffic layer: moves a robot may have queued (default 2)")
+    ap.add_argument("--window", type=int, default=1, help="traffic layer: moves a robot may have queued (default 1)")
     ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
                     help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
     ap.add_argument("--rule", nargs="*", choices=tuple(RULES), default=["new"],

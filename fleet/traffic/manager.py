@@ -54,7 +54,7 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 3.0,
+                 stall_s: float = 10.0, window: int = 1, lane_cost: float = 3.0,
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  record: bool = False) -> None:

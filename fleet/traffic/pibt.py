@@ -37,6 +37,9 @@ class PIBT:
         self.pushes: list[tuple[int, int]] = []  # (pusher, pushed) of the last step: priority inheritance
         self.yield_aside = True  # a pushed agent prefers, among equally good nodes, one off its pusher's way
         self.push_frozen = True  # frozen agents do not plan a move of their own but can still be pushed
+        self.frozen: set[int] = set()
+        self.priority = np.zeros(0)
+        self.root = 0.0  # priority of the agent whose push chain is being planned
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
@@ -55,9 +58,11 @@ class PIBT:
             for i in frozen:
                 self.nxt[i] = self.cur[i]
                 self.reserved[self.cur[i]] = i
-        skip = set(frozen)
+        self.frozen = set(frozen)
+        self.priority = priority
         for i in np.argsort(-priority, kind="stable").tolist():
-            if self.nxt[i] < 0 and i not in skip:
+            if self.nxt[i] < 0 and i not in self.frozen:
+                self.root = float(priority[i])
                 self._pibt(i, None)
         for i in frozen:  # not pushed by anyone: they stay (nobody took their node without pushing them)
             if self.nxt[i] < 0:
@@ -69,6 +74,11 @@ class PIBT:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
+        if i in self.frozen and self.priority[i] > self.root:
+            # A frozen agent pushed by a chain of lower priority may only move on (no farther from its goal): a
+            # follower extends its leader's plan, it cannot push it back (two robots doing that to each other in
+            # turn, each frozen while the other plans, was a livelock in a one-lane aisle).
+            cands = [v for v in cands if dist[v] <= dist[c]]
         straight = np.array([v != self.prefer[i] for v in cands])
         if pusher is not None and self.yield_aside:
             # Off the pusher's way: a node the pusher does not need next (no closer to its goal than i's node).

@@ -40,6 +40,7 @@ class PIBT:
         self.frozen: set[int] = set()
         self.priority = np.zeros(0)
         self.root = 0.0  # priority of the agent whose push chain is being planned
+        self.move_on = True  # a frozen agent pushed by a lower chain may only move on (no farther from its goal)
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
@@ -74,7 +75,7 @@ class PIBT:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
-        if i in self.frozen and self.priority[i] > self.root:
+        if self.move_on and i in self.frozen and self.priority[i] > self.root:
             # A frozen agent pushed by a chain of lower priority may only move on (no farther from its goal): a
             # follower extends its leader's plan, it cannot push it back (two robots doing that to each other in
             # turn, each frozen while the other plans, was a livelock in a one-lane aisle).

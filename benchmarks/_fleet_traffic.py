@@ -109,7 +109,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         d = tm.describe()
         in_progress = int(np.count_nonzero(tm.pending))
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
-                f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}), "
+                f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
+                f"window {window}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,
                 "done": len(done),

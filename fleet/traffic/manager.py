@@ -3,8 +3,10 @@ executed asynchronously through an action-dependency graph (schedule.py), so the
 other or wait on each other in a cycle; ORCA stays for robots outside the layer.
 
 Planning: PIBT plans steps on the planned configuration (the robots' last planned cells), at most one per
-control tick, whenever some robot with a goal has nothing queued; robots with `window` moves queued already sit
-the step out (neither moved nor pushed), which bounds the look-ahead and keeps plans fresh for new goals.
+control tick, whenever some robot with a goal has nothing queued; robots with `window` moves queued already plan
+no move of their own (bounded look-ahead, fresh plans for new goals) but can still be pushed — one more move
+appended — so the highest-priority robot is never held by a robot that merely has a move queued, and a follower
+extends its leader's plan (a frozen robot pushed by a lower-priority chain may only move on: pibt.py).
 Execution: each robot claims its next planned cell
 as soon as the schedule lets it (first in the cell's FIFO, nobody in or entering it), turns to face it (or
 reverses into a cell behind), and drives there on a braking-limited profile that keeps `gap` from the robot
@@ -245,8 +247,8 @@ class TrafficManager:
         # 4. profiles and commands (numpy over all robots)
         v, w = self._drive(now, dt, pos, yaw)
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
-        #    queued already sit this step out (neither moved nor pushed: bounded look-ahead), as in Causal-PIBT
-        #    only robots ready to act take part, so a slow robot holds up only the robots that need its cells.
+        #    queued already plan no move of their own (bounded look-ahead; as in Causal-PIBT only robots ready to
+        #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)

@@ -48,8 +48,11 @@ NAVIGATION = {"controller": {"type": "pure_pursuit", "desired_linear_vel": 0.6},
               "planner": {"type": "guided_theta_star"}}
 LIDAR = {"beams": 90, "rate_hz": 5.0}  # the navigators' reactive layer still sees obstacles; 8x fewer rays
 RULES: dict[str, dict[str, Any]] = {  # traffic layer: the rules against long waits, off (old) and on (new)
-    "old": {"urgent_s": None, "yield_aside": False, "highway": 1.0, "lane_cost": 1.0},
-    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0}}
+    "old": {"urgent_s": None, "yield_aside": False, "highway": 1.0, "lane_cost": 1.0, "push_frozen": False,
+            "window": 2},
+    "l3": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": False,
+           "window": 2},
+    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": True}}
 LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
 LIDAR_OFF = {"enabled": False}
 
@@ -161,12 +164,14 @@ def main() -> None:
     ap.add_argument("--traffic-only", action="store_true", help="only the traffic-layer runs")
     ap.add_argument("--traffic-lidar", nargs="*", choices=("on", "off"), default=["on"],
                     help="traffic-layer runs with the 360-beam lidar on, off, or both (default on)")
-    ap.add_argument("--window", type=int, default=2, help="traffic layer: moves a robot may have queued (default 2)")
+    ap.add_argument("--window", type=int, default=1, help="traffic layer: moves a robot may have queued (default 1)")
     ap.add_argument("--priority", nargs="*", choices=("goal_age", "since_progress"), default=["goal_age"],
                     help="traffic layer: PIBT priority rule(s), one run each (default goal_age)")
     ap.add_argument("--rule", nargs="*", choices=tuple(RULES), default=["new"],
-                    help="traffic layer: rules against long waits, one run each: old = none; new = lanes "
-                         "(highway 4, lane_cost 3), aging (urgent after 12 s without progress), yield aside")
+                    help="traffic layer: rules against long waits, one run each: old = none (window 2); l3 = the "
+                         "third landing's (lanes: highway 4, lane_cost 3; aging: urgent after 12 s without "
+                         "progress; yield aside; window 2); new = l3 with window --window (default 1) and robots "
+                         "with a full window can still be pushed")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -192,8 +197,8 @@ def main() -> None:
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
                     for prio, rule in itertools.product(a.priority, a.rule):
-                        r = run_traffic(n, minutes, a.seed, models[lid], window=a.window, priority=prio,
-                                        **RULES[rule],
+                        r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
+                                        **{"window": a.window, **RULES[rule]},
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

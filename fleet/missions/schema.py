@@ -83,7 +83,7 @@ class TrafficSection(StrictModel):
     type: Literal["pibt"] = "pibt"
     cell: float = Field(1.0, gt=0, description="grid cell side, m (≥ the footprint diameter + 0.1 m)")
     speed: float = Field(0.6, gt=0, description="peak speed along the cells, m/s")
-    window: int = Field(2, ge=1, le=16, description="moves a robot may have planned ahead")
+    window: int = Field(1, ge=1, le=16, description="moves a robot may have planned ahead")
     stall_s: float = Field(10.0, gt=0, description="no progress for this long raises a deadlock event")
     priority: Literal["goal_age", "since_progress"] = Field(
         "goal_age", description="PIBT priority: time since the goal was given, or since the robot last got closer")

@@ -3,8 +3,10 @@ executed asynchronously through an action-dependency graph (schedule.py), so the
 other or wait on each other in a cycle; ORCA stays for robots outside the layer.
 
 Planning: PIBT plans steps on the planned configuration (the robots' last planned cells), at most one per
-control tick, whenever some robot with a goal has nothing queued; robots with `window` moves queued already sit
-the step out (neither moved nor pushed), which bounds the look-ahead and keeps plans fresh for new goals.
+control tick, whenever some robot with a goal has nothing queued; robots with `window` moves queued already plan
+no move of their own (bounded look-ahead, fresh plans for new goals) but can still be pushed — one more move
+appended — so the highest-priority robot is never held by a robot that merely has a move queued, and a follower
+extends its leader's plan (a frozen robot pushed by a lower-priority chain may only move on: pibt.py).
 Execution: each robot claims its next planned cell
 as soon as the schedule lets it (first in the cell's FIFO, nobody in or entering it), turns to face it (or
 reverses into a cell behind), and drives there on a braking-limited profile that keeps `gap` from the robot
@@ -54,9 +56,10 @@ class TrafficManager:
     exclusive = True  # its robots' commands skip velocity avoidance (the layer already keeps them apart)
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
-                 stall_s: float = 10.0, window: int = 2, lane_cost: float = 3.0,
+                 stall_s: float = 10.0, window: int = 1, lane_cost: float = 3.0,
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
-                 yield_aside: bool = True, highway: float = 4.0, record: bool = False) -> None:
+                 yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
+                 record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -84,6 +87,7 @@ class TrafficManager:
         if not (math.isfinite(highway) and highway >= 1.0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic highway must be ≥ 1 (1: no lanes), got {highway}")
         self.pibt.yield_aside = yield_aside
+        self.pibt.push_frozen = push_frozen
         self.window = window
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
@@ -243,8 +247,8 @@ class TrafficManager:
         # 4. profiles and commands (numpy over all robots)
         v, w = self._drive(now, dt, pos, yaw)
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
-        #    queued already sit this step out (neither moved nor pushed: bounded look-ahead), as in Causal-PIBT
-        #    only robots ready to act take part, so a slow robot holds up only the robots that need its cells.
+        #    queued already plan no move of their own (bounded look-ahead; as in Causal-PIBT only robots ready to
+        #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)

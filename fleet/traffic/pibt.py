@@ -12,7 +12,10 @@ Changes for real robots (fleet/traffic/manager.py executes the steps asynchronou
 - an agent does not follow another around a closed loop of moves (a rotation): each robot would wait for the
   one ahead to clear its cell. The reachability argument above assumes rotations are allowed, so in packed
   corners the guarantee is weaker (a push chain that would close a loop must end elsewhere or wait);
-- `frozen` agents (robots with enough moves queued already) neither move nor get pushed this step;
+- `frozen` agents (robots with enough moves queued already) plan no move of their own this step, but can still
+  be pushed (one more move appended to their queue). Frozen agents that could not be pushed were the main cause
+  of the long waits in the 100-robot warehouse: the highest-priority robot found its next node held by a frozen
+  one and waited a whole step, step after step, in the busy central aisle (docs/benchmarks-fleet.md);
 - among nodes equally close to the goal, the one straight on comes first (a turn costs a stop);
 - `yield_aside`: a pushed agent, among nodes equally close to its goal, takes one its pusher does not need next
   (no closer to the pusher's goal than its own node), so an agent met head-on steps aside rather than
@@ -33,11 +36,17 @@ class PIBT:
         self.rng = np.random.default_rng(seed)
         self.pushes: list[tuple[int, int]] = []  # (pusher, pushed) of the last step: priority inheritance
         self.yield_aside = True  # a pushed agent prefers, among equally good nodes, one off its pusher's way
+        self.push_frozen = True  # frozen agents do not plan a move of their own but can still be pushed
+        self.frozen: set[int] = set()
+        self.priority = np.zeros(0)
+        self.root = 0.0  # priority of the agent whose push chain is being planned
+        self.move_on = True  # a frozen agent pushed by a lower chain may only move on (no farther from its goal)
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
-        """The next node of every agent (its own node when it waits). `frozen` agents stay where they are and
-        cannot be pushed (the traffic layer's robots with enough moves queued already): obstacles this step.
+        """The next node of every agent (its own node when it waits). `frozen` agents (the traffic layer's robots
+        with enough moves queued already) plan no move of their own: they stay unless a higher agent pushes them
+        (`push_frozen`; without it they are obstacles this step).
         `prefer`: per agent, the node that goes straight on (-1: none); among nodes equally close to the goal it
         comes first, so robots do not zig-zag (every turn costs a real robot a stop and a turn in place)."""
         self.cur, self.goals = list(cur), list(goals)
@@ -46,18 +55,31 @@ class PIBT:
         self.nxt = [-1] * len(self.cur)
         self.reserved: dict[int, int] = {}
         self.pushes = []
-        for i in frozen:
-            self.nxt[i] = self.cur[i]
-            self.reserved[self.cur[i]] = i
+        if not self.push_frozen:
+            for i in frozen:
+                self.nxt[i] = self.cur[i]
+                self.reserved[self.cur[i]] = i
+        self.frozen = set(frozen)
+        self.priority = priority
         for i in np.argsort(-priority, kind="stable").tolist():
-            if self.nxt[i] < 0:
+            if self.nxt[i] < 0 and i not in self.frozen:
+                self.root = float(priority[i])
                 self._pibt(i, None)
+        for i in frozen:  # not pushed by anyone: they stay (nobody took their node without pushing them)
+            if self.nxt[i] < 0:
+                self.nxt[i] = self.cur[i]
+                self.reserved[self.cur[i]] = i
         return self.nxt
 
     def _pibt(self, i: int, pusher: int | None) -> bool:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
+        if self.move_on and i in self.frozen and self.priority[i] > self.root:
+            # A frozen agent pushed by a chain of lower priority may only move on (no farther from its goal): a
+            # follower extends its leader's plan, it cannot push it back (two robots doing that to each other in
+            # turn, each frozen while the other plans, was a livelock in a one-lane aisle).
+            cands = [v for v in cands if dist[v] <= dist[c]]
         straight = np.array([v != self.prefer[i] for v in cands])
         if pusher is not None and self.yield_aside:
             # Off the pusher's way: a node the pusher does not need next (no closer to its goal than i's node).

@@ -21,13 +21,15 @@ import numpy as np
 from pydantic import Field
 
 from sim.config import StrictModel
+from sim.transforms import se2_between
 from slam import se2
 
 
 class EdgeSwitchConfig(StrictModel):
-    enabled: bool = Field(False, description="measured on orebro: 0.93 m with it, 0.86 without (it moved the "
-                          "wrong edge: a loop group's cycle there holds several wrong steps)")
-    max_drop: float = Field(0.12, gt=0, le=1, description="an edge may be moved to a pose scoring at most "
+    enabled: bool = True
+    prior_weight: float = Field(0.03, ge=0, description="score penalty per m² of a step's distance from the "
+                                "previous step, when ranking the edges a group could move")
+    max_drop: float = Field(0.25, gt=0, le=1, description="an edge may be moved to a pose scoring at most "
                             "this much below its match (mean hit likelihood)")
     radius: float = Field(0.25, gt=0, description="the peak may lie this far from the pose the group asks "
                           "for (lattice and loop noise), m")
@@ -55,16 +57,24 @@ class Surface:
 
 def rank_edges(candidates: list[int], surfaces: dict[int, Surface], poses: list[se2.PoseTuple],
                d_world: np.ndarray, config: EdgeSwitchConfig) -> list[tuple[int, float]]:
-    """(node e, drop) of the candidates whose score surface supports moving pose e by `d_world` (drop at
-    most `max_drop`), best supported first. The node's current rotation maps d into its frame."""
+    """(node e, gain) of the candidates whose score surface supports moving pose e by `d_world` (a drop of at
+    most `max_drop`), best first. The gain is the change of the wide search's own objective — match score
+    minus a quadratic penalty on the step's distance from the constant-velocity prediction — if the step
+    moved: the surface's drop, plus what the move does to the step's agreement with the previous step."""
     out: list[tuple[int, float]] = []
     for e in candidates:
         surf = surfaces.get(e)
-        if surf is None:
+        if surf is None or e < 2:
             continue
         c, s = math.cos(poses[e][2]), math.sin(poses[e][2])
         d_local = np.array([c * d_world[0] + s * d_world[1], -s * d_world[0] + c * d_world[1]])
         drop = surf.drop_near(d_local, config.radius)
-        if drop >= -config.max_drop:
-            out.append((e, drop))
-    return sorted(out, key=lambda ed: -ed[1])
+        if drop < -config.max_drop:
+            continue
+        pred = np.array(se2_between(poses[e - 2], poses[e - 1])[:2])
+        step = np.array(se2_between(poses[e - 1], poses[e])[:2])
+        c, s = math.cos(poses[e - 1][2]), math.sin(poses[e - 1][2])
+        moved = step + np.array([c * d_world[0] + s * d_world[1], -s * d_world[0] + c * d_world[1]])
+        prior = config.prior_weight * (float(np.sum((step - pred) ** 2)) - float(np.sum((moved - pred) ** 2)))
+        out.append((e, drop + prior))
+    return sorted(out, key=lambda eg: -eg[1])

@@ -190,25 +190,19 @@ class LoopFinder:
         if len(members) < gc.min_size:
             return
         added, fits, broken = self._add_group(members)
-        if len(fits) >= gc.min_size and not broken:
-            self._accept(added, fits, broken)
+        if len(fits) >= gc.min_size and len(broken) * gc.outvote <= len(fits):
+            self._accept(added, fits, broken)  # fits, contradicting at most a few accepted closures
             return
         self._take_out(added)
         for e, d in self._named_edges(members)[: self.config.edge_switch.tries]:
             switched = self._switch_edge(e, d)
-            added2, fits2, broken2 = self._add_group(members)
-            if len(fits2) >= gc.min_size and len(broken2) * gc.outvote <= len(fits2):
-                self.switched.append(e)
-                self._accept(added2, fits2, broken2)
-                return
-            self._take_out(added2)
-            self._unswitch(switched)
-        if len(fits) >= gc.min_size and len(broken) * gc.outvote <= len(fits):
             added, fits, broken = self._add_group(members)
-            if len(fits) >= gc.min_size and len(broken) * gc.outvote <= len(fits):
+            if len(fits) >= gc.min_size and not broken:
+                self.switched.append(e)
                 self._accept(added, fits, broken)
-            else:
-                self._take_out(added)
+                return
+            self._take_out(added)
+            self._unswitch(switched)
 
     def _add_group(self, members: list[Pending]) -> tuple[dict[int, Pending], dict[int, Pending], list[int]]:
         """Add the closures, optimise: (added, those that fit, accepted closures that no longer fit)."""
@@ -258,7 +252,9 @@ class LoopFinder:
             return []
         d = np.median(moves[:, :2] - here[:, :2], axis=0)
         lo, hi = max(p.target for p in members), min(p.source for p in members)
-        ranked = rank_edges(list(range(lo + 1, hi + 1)), s.surfaces, s.poses, d, cfg)
+        crossed = [(c.target, c.source) for c in self.active.values()]  # edges an accepted closure holds
+        cand = [e for e in range(lo + 1, hi + 1) if not any(t < e <= u for t, u in crossed)]
+        ranked = rank_edges(cand, s.surfaces, s.poses, d, cfg)
         return [(e, d) for e, _ in ranked]
 
     def _switch_edge(self, e: int, d: np.ndarray) -> tuple[int, int, gtsam.NonlinearFactor]:

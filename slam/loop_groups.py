@@ -34,7 +34,7 @@ class LoopGroupConfig(StrictModel):
     gate_yaw: float = Field(0.08, gt=0, description="rad")
     max_span: float = Field(10.0, gt=0, description="closures whose targets (or sources) are further apart "
                             "along the path than this cannot vouch for each other, m")
-    outvote: int = Field(1, ge=1, description="a group may remove accepted closures it contradicts if it has "
+    outvote: int = Field(2, ge=1, description="a group may remove accepted closures it contradicts if it has "
                          "this many times as many members; otherwise the group is taken out again")
     max_pending: int = Field(200, ge=1, description="oldest pending closures are dropped beyond this")
 

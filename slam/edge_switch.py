@@ -44,10 +44,14 @@ class Surface:
     drop: np.ndarray  # (k,) score − best score (≤ 0)
 
     @staticmethod
-    def of(offsets_world: np.ndarray, scores: np.ndarray, pose: se2.PoseTuple) -> Surface:
+    def of(offsets_world: np.ndarray, scores: np.ndarray, pose: se2.PoseTuple, keep: float = 0.3) -> Surface:
+        """Only offsets scoring within `keep` of the best are stored (a few % of the lattice: memory stays
+        small on long logs without odometry)."""
         c, s = math.cos(pose[2]), math.sin(pose[2])
-        local = offsets_world @ np.array([[c, -s], [s, c]])  # world → pose frame: Rᵀ·d for each row
-        return Surface(local, scores - float(scores.max()))
+        drop = scores - float(scores.max())
+        near = drop >= -keep
+        local = offsets_world[near] @ np.array([[c, -s], [s, c]])  # world → pose frame: Rᵀ·d for each row
+        return Surface(local.astype(np.float32), drop[near].astype(np.float32))
 
     def drop_near(self, d_local: np.ndarray, radius: float) -> float:
         """Best (highest) drop among lattice offsets within `radius` of `d_local`; −inf outside the window."""

@@ -72,6 +72,7 @@ class LoopFinder:
         self.active: dict[int, Closure] = {}  # graph factor index → accepted closure still in the graph
         self._edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
         self.pending: list[Pending] = []  # verified but inconsistent closures (`slam.loop_groups`)
+        self._old_edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
         self.switched: list[int] = []  # front-end edges moved to their alternative peak by a loop group
         self._floor = np.diag([config.sigma_floor_xy ** 2, config.sigma_floor_xy ** 2, config.sigma_floor_yaw ** 2])
 
@@ -263,16 +264,21 @@ class LoopFinder:
         s = self.slam
         moved = (s.poses[e][0] + float(d[0]), s.poses[e][1] + float(d[1]), s.poses[e][2])
         rel = se2_between(s.poses[e - 1], moved)
-        cov = next(c for i, j, _, c in s.edges if i == e - 1 and j == e)
-        new = gtsam.BetweenFactorPose2(e - 1, e, gtsam.Pose2(*rel), gaussian(cov))
-        index, old = s.graph.swap(s.graph.chain[e], new)
+        k = next(k for k, (i, j, _, _) in enumerate(s.edges) if i == e - 1 and j == e)
+        cov = s.edges[k][3]
+        index, old = s.graph.swap(s.graph.chain[e], gtsam.BetweenFactorPose2(e - 1, e, gtsam.Pose2(*rel),
+                                                                           gaussian(cov)))
         s.graph.chain[e] = index
+        self._old_edge[e] = s.edges[k]
+        s.edges[k] = (e - 1, e, rel, cov)  # graph.g2o holds the moved edge
         return e, index, old
 
     def _unswitch(self, switched: tuple[int, int, gtsam.NonlinearFactor]) -> None:
         e, index, old = switched
         g = self.slam.graph
         g.chain[e] = g.swap(index, old)[0]
+        k = next(k for k, (i, j, _, _) in enumerate(self.slam.edges) if i == e - 1 and j == e)
+        self.slam.edges[k] = self._old_edge.pop(e)
         g.converge(max_steps=50)
         self.slam.refresh_poses()
 

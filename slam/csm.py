@@ -42,6 +42,8 @@ class MatchGrid:
             field[c[:, 1] + r + oy, c[:, 0] + r + ox] = val
         field = np.ascontiguousarray(field[r:r + h, r:r + w])
         self._levels = [_zero_border(field)]
+        # cells on every side of level 0 that are zero whatever the points (margin minus the kernel radius)
+        self.zero_margin = max(0, math.floor(margin / res) - r - 2)
 
     @property
     def field(self) -> np.ndarray:
@@ -136,8 +138,21 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
     gx, gy = np.meshgrid(starts, starts, indexing="ij")
     ox, oy = gx.ravel(), gy.ravel()
     top = grid.level(depth)
+    hh, ww = top.shape
+    # If every level's zero margin is at least the window, a point either keeps all its lookups inside the
+    # grid or has all of them in the margin or off the grid (all 0, so it can read the zero corner instead):
+    # one flat index per point and rotation then replaces the per-axis clamping (same scores, ~2× faster).
+    flat: np.ndarray | None = None
+    if grid.zero_margin - block + 1 >= size and hh * ww < 2 ** 31:
+        bx, by = base[..., 0], base[..., 1]
+        inside = (bx >= 0) & (by >= 0) & (bx + size <= ww) & (by + size <= hh)
+        flat = np.where(inside, by * ww + bx, 0).astype(np.int32)  # (A, n)
     # top level: every rotation × every block, vectorised
-    sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None], base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n
+    if flat is not None:
+        sc = np.take(top.ravel(), flat[:, None, :] + (oy * ww + ox)[None, :, None]).sum(-1) / n
+    else:
+        sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None],
+                     base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n
     sc = sc - _penalty(ox, oy, block, nw, res, prior_weight_xy)[None, :]
     sc = sc - (prior_weight_yaw * (angles - guess[2]) ** 2)[:, None]
     yaw_pen = prior_weight_yaw * (angles - guess[2]) ** 2
@@ -157,6 +172,10 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
         lv = grid.level(h - 1)
         v = np.empty(len(a))
         for k in range(0, len(a), 8192):  # chunks bound the (blocks × points) working set
+            if flat is not None:
+                off = y[k:k + 8192] * ww + x[k:k + 8192]
+                v[k:k + 8192] = np.take(lv.ravel(), flat[a[k:k + 8192]] + off[:, None]).sum(-1)
+                continue
             b = base[a[k:k + 8192]]
             v[k:k + 8192] = _lookup(lv, b[:, :, 0] + x[k:k + 8192, None], b[:, :, 1] + y[k:k + 8192, None]).sum(-1)
         return a, x, y, v / n - _penalty(x, y, half, nw, res, prior_weight_xy) - yaw_pen[a]

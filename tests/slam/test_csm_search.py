@@ -40,17 +40,21 @@ def _brute(grid: MatchGrid, pts: np.ndarray, guess: tuple[float, float, float], 
 def test_branch_and_bound_finds_the_brute_force_optimum() -> None:
     rng = np.random.default_rng(3)
     world = _room(rng)
-    grid = MatchGrid(world, 0.05, 0.07, margin=0.5)
     truth = (4.1, 2.3, 0.05)
     scan = se2.transform_points(_inv(truth), world[::4])
-    scan = np.vstack([scan, [[20.0, 0.0], [-15.0, 3.0]]])  # returns far off the grid: they score 0
+    scan = np.vstack([scan, [[20.0, 0.0], [-15.0, 3.0], [4.0, 4.3]]])  # off the grid, and in its margin
     guess = (4.25, 2.2, 0.0)
-    for w_xy, w_yaw in ((0.0, 0.0), (0.5, 0.5)):
-        res = search(grid, scan, guess, window_xy=0.3, window_yaw=0.06, prior_weight_xy=w_xy, prior_weight_yaw=w_yaw)
-        assert res is not None
-        assert math.isclose(res.score, _brute(grid, scan, guess, 0.3, 0.06, w_xy, w_yaw), abs_tol=1e-6)
-    res = search(grid, scan, guess, window_xy=0.3, window_yaw=0.06)
-    assert res is not None and math.hypot(res.pose[0] - truth[0], res.pose[1] - truth[1]) <= 0.05
+    # margin 0.5 m: per-axis clamped lookups; 3 m: the zero margin holds the window, flat lookups
+    for margin in (0.5, 3.0):
+        grid = MatchGrid(world, 0.05, 0.07, margin=margin)
+        assert (grid.zero_margin - 16 + 1 >= 13) == (margin > 1)  # window ±0.3 m: 13 cells, top block 16
+        for w_xy, w_yaw in ((0.0, 0.0), (0.5, 0.5)):
+            res = search(grid, scan, guess, window_xy=0.3, window_yaw=0.06, prior_weight_xy=w_xy,
+                         prior_weight_yaw=w_yaw)
+            assert res is not None
+            assert math.isclose(res.score, _brute(grid, scan, guess, 0.3, 0.06, w_xy, w_yaw), abs_tol=1e-6)
+        res = search(grid, scan, guess, window_xy=0.3, window_yaw=0.06)
+        assert res is not None and math.hypot(res.pose[0] - truth[0], res.pose[1] - truth[1]) <= 0.05
 
 
 def _inv(p: tuple[float, float, float]) -> tuple[float, float, float]:

@@ -54,10 +54,12 @@ class MatchGrid:
         while len(self._levels) <= h:
             prev = self._levels[-1]
             s = 1 << (len(self._levels) - 1)
-            nxt = prev.copy()
-            nxt[:, :-s] = np.maximum(nxt[:, :-s], prev[:, s:])
-            nxt2 = nxt.copy()
-            nxt2[:-s, :] = np.maximum(nxt2[:-s, :], nxt[s:, :])
+            nxt = np.empty_like(prev)  # max with the block s columns on, then s rows on (no full copies)
+            np.maximum(prev[:, :-s], prev[:, s:], out=nxt[:, :-s])
+            nxt[:, -s:] = prev[:, -s:]
+            nxt2 = np.empty_like(nxt)
+            np.maximum(nxt[:-s, :], nxt[s:, :], out=nxt2[:-s, :])
+            nxt2[-s:, :] = nxt[-s:, :]
             self._levels.append(_zero_border(nxt2))
         return self._levels[h]
 

@@ -249,7 +249,7 @@ class LogSlam:
             mp = self.config.motion_prior
             grid_pts = thin(np.vstack([pts] + [se2.transform_points(self.poses[k], fill_surfaces(
                 self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)) for k in idx]), fe.resolution / 2)
-        margin = 2.0 + 2 * fe.wide_window_xy if fill else 1.0  # wide: a zero margin the window fits in (csm)
+        margin = 1.5 + 2 * fe.wide_window_xy if fill else 1.0  # wide: a zero margin the window fits in (csm)
         self._local = (MatchGrid(grid_pts, fe.resolution, fe.sigma, margin=margin), IcpTarget.from_points(pts))
         self._local_at, self._local_pose, self._local_filled = n - 1, last, fill
         self.stats.local_map_builds += 1

@@ -36,7 +36,7 @@ class LoopGroupConfig(StrictModel):
                             "along the path than this cannot vouch for each other, m")
     outvote: int = Field(2, ge=1, description="a group may remove accepted closures it contradicts if it has "
                          "this many times as many members; otherwise the group is taken out again")
-    max_pending: int = Field(200, ge=1, description="oldest pending closures are dropped beyond this")
+    max_pending: int = Field(100, ge=1, description="oldest pending closures are dropped beyond this")
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,15 +67,17 @@ def largest_group(pending: list[Pending], newest: int, poses: list[se2.PoseTuple
                   config: LoopGroupConfig) -> list[int]:
     """Indices of a large set of pending closures that includes `newest` and agree pairwise (greedy clique:
     the members most connected to the rest first)."""
-    n = len(pending)
-    ok = np.zeros((n, n), dtype=bool)
-    for i in range(n):
-        for j in range(i + 1, n):
-            ok[i, j] = ok[j, i] = consistent(pending[i], pending[j], poses, path, config)
-    cand = [k for k in np.nonzero(ok[newest])[0].tolist()]
-    cand.sort(key=lambda k: -int(ok[k, cand].sum()))
+    new = pending[newest]
+    cand = [k for k, p in enumerate(pending) if k != newest and consistent(p, new, poses, path, config)]
+    # pairwise among the newest's neighbours only (the clique must contain the newest)
+    ok = {(i, j): consistent(pending[i], pending[j], poses, path, config) for i in cand for j in cand if i < j}
+
+    def agree(i: int, j: int) -> bool:
+        return i == j or ok[(min(i, j), max(i, j))]
+
+    cand.sort(key=lambda k: -sum(agree(k, j) for j in cand))
     group = [newest]
     for k in cand:
-        if all(ok[k, g] for g in group):
+        if all(agree(k, g) for g in group[1:]):
             group.append(k)
     return group

@@ -29,7 +29,8 @@ class MatchGrid:
         w, h = (np.ceil((hi - lo) / res).astype(int) + 1).tolist()
         # max over the points of exp(−d²/2σ²), cut at 4σ: stamp a kernel on every hit cell, weakest offsets
         # first, so each cell ends with its largest value (cheaper than a distance transform of the grid)
-        c = np.unique(np.floor((pts - lo) / res).astype(np.int64), axis=0)
+        c = np.floor((pts - lo) / res).astype(np.int64)
+        c = c[first_per_cell(c)]
         r = math.ceil(4.0 * sigma / res)
         dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
         wk = np.exp(-0.5 * (dx ** 2 + dy ** 2) * (res / sigma) ** 2)
@@ -41,6 +42,8 @@ class MatchGrid:
             field[c[:, 1] + r + oy, c[:, 0] + r + ox] = val
         field = np.ascontiguousarray(field[r:r + h, r:r + w])
         self._levels = [_zero_border(field)]
+        # cells on every side of level 0 that are zero whatever the points (margin minus the kernel radius)
+        self.zero_margin = max(0, math.floor(margin / res) - r - 2)
 
     @property
     def field(self) -> np.ndarray:
@@ -51,10 +54,12 @@ class MatchGrid:
         while len(self._levels) <= h:
             prev = self._levels[-1]
             s = 1 << (len(self._levels) - 1)
-            nxt = prev.copy()
-            nxt[:, :-s] = np.maximum(nxt[:, :-s], prev[:, s:])
-            nxt2 = nxt.copy()
-            nxt2[:-s, :] = np.maximum(nxt2[:-s, :], nxt[s:, :])
+            nxt = np.empty_like(prev)  # max with the block s columns on, then s rows on (no full copies)
+            np.maximum(prev[:, :-s], prev[:, s:], out=nxt[:, :-s])
+            nxt[:, -s:] = prev[:, -s:]
+            nxt2 = np.empty_like(nxt)
+            np.maximum(nxt[:-s, :], nxt[s:, :], out=nxt2[:-s, :])
+            nxt2[-s:, :] = nxt[-s:, :]
             self._levels.append(_zero_border(nxt2))
         return self._levels[h]
 
@@ -68,6 +73,18 @@ class MatchGrid:
         return float(_lookup(self._levels[0], c[:, 0], c[:, 1]).mean()) if len(c) else 0.0
 
 
+def first_per_cell(cells: np.ndarray) -> np.ndarray:
+    """Sorted indices of the first row of each distinct (col, row) pair: np.unique(axis=0, return_index=True)
+    on a 1-D key (a row-wise unique sorts whole rows and is ~10× slower)."""
+    if len(cells) == 0:
+        return np.zeros(0, dtype=np.int64)
+    lo = cells.min(axis=0)
+    span = int(cells[:, 1].max() - lo[1]) + 1
+    key = (cells[:, 0] - lo[0]) * span + (cells[:, 1] - lo[1])
+    _, first = np.unique(key, return_index=True)
+    return np.sort(first)
+
+
 def _zero_border(a: np.ndarray) -> np.ndarray:
     a[0, :] = a[-1, :] = 0.0
     a[:, 0] = a[:, -1] = 0.0
@@ -75,8 +92,17 @@ def _zero_border(a: np.ndarray) -> np.ndarray:
 
 
 def _lookup(grid: np.ndarray, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """grid[rows, cols], off-grid cells read as 0. Viewed as unsigned, a negative index becomes huge, so one
+    minimum clamps both sides onto the last row/column, which is a zero border (3× faster than two-sided
+    clipping and fancy indexing on two arrays; this is the search's inner loop)."""
     h, w = grid.shape
-    return grid[np.clip(rows, 0, h - 1), np.clip(cols, 0, w - 1)]  # borders are 0: off-grid scores 0
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    small = rows.dtype == np.int32 and cols.dtype == np.int32 and h * w < 2 ** 31
+    signed, unsigned = (np.int32, np.uint32) if small else (np.int64, np.uint64)
+    r = np.minimum(rows.astype(signed, copy=False).view(unsigned), unsigned(h - 1))
+    r *= unsigned(w)
+    r += np.minimum(cols.astype(signed, copy=False).view(unsigned), unsigned(w - 1))
+    return np.take(grid.ravel(), r)
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,16 +132,29 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
     c, s = np.cos(angles), np.sin(angles)
     rx = c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1] + guess[0]
     ry = s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1] + guess[1]
-    base = grid.cells(np.stack([rx, ry], axis=-1)) - nw  # (A, n, 2)
+    base = (grid.cells(np.stack([rx, ry], axis=-1)) - nw).astype(np.int32)  # (A, n, 2); int32 halves traffic
     n = len(pts)
     size = 2 * nw + 1
     block = 1 << depth
-    starts = np.arange(0, size, block)
+    starts = np.arange(0, size, block, dtype=np.int32)
     gx, gy = np.meshgrid(starts, starts, indexing="ij")
     ox, oy = gx.ravel(), gy.ravel()
     top = grid.level(depth)
+    hh, ww = top.shape
+    # If every level's zero margin is at least the window, a point either keeps all its lookups inside the
+    # grid or has all of them in the margin or off the grid (all 0, so it can read the zero corner instead):
+    # one flat index per point and rotation then replaces the per-axis clamping (same scores, ~2× faster).
+    flat: np.ndarray | None = None
+    if grid.zero_margin - block + 1 >= size and hh * ww < 2 ** 31:
+        bx, by = base[..., 0], base[..., 1]
+        inside = (bx >= 0) & (by >= 0) & (bx + size <= ww) & (by + size <= hh)
+        flat = np.where(inside, by * ww + bx, 0).astype(np.int32)  # (A, n)
     # top level: every rotation × every block, vectorised
-    sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None], base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n
+    if flat is not None:
+        sc = np.take(top.ravel(), flat[:, None, :] + (oy * ww + ox)[None, :, None]).sum(-1) / n
+    else:
+        sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None],
+                     base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n
     sc = sc - _penalty(ox, oy, block, nw, res, prior_weight_xy)[None, :]
     sc = sc - (prior_weight_yaw * (angles - guess[2]) ** 2)[:, None]
     yaw_pen = prior_weight_yaw * (angles - guess[2]) ** 2
@@ -128,13 +167,17 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
         """The four sub-blocks (level h−1) of every block in `c` (level h), scored on level h−1."""
         half = 1 << (h - 1)
         a = np.repeat(c[0], 4)
-        x = (c[1][:, None] + np.array([0, half, 0, half])[None, :]).ravel()
-        y = (c[2][:, None] + np.array([0, 0, half, half])[None, :]).ravel()
+        x = (c[1][:, None] + np.array([0, half, 0, half], dtype=np.int32)[None, :]).ravel()
+        y = (c[2][:, None] + np.array([0, 0, half, half], dtype=np.int32)[None, :]).ravel()
         keep = (x < size) & (y < size)
         a, x, y = a[keep], x[keep], y[keep]
         lv = grid.level(h - 1)
         v = np.empty(len(a))
         for k in range(0, len(a), 8192):  # chunks bound the (blocks × points) working set
+            if flat is not None:
+                off = y[k:k + 8192] * ww + x[k:k + 8192]
+                v[k:k + 8192] = np.take(lv.ravel(), flat[a[k:k + 8192]] + off[:, None]).sum(-1)
+                continue
             b = base[a[k:k + 8192]]
             v[k:k + 8192] = _lookup(lv, b[:, :, 0] + x[k:k + 8192, None], b[:, :, 1] + y[k:k + 8192, None]).sum(-1)
         return a, x, y, v / n - _penalty(x, y, half, nw, res, prior_weight_xy) - yaw_pen[a]

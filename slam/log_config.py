@@ -8,8 +8,11 @@ from typing import Literal
 from pydantic import Field
 
 from sim.config import StrictModel
+from slam.edge_switch import EdgeSwitchConfig
 from slam.hypotheses import HypothesesConfig
+from slam.loop_groups import LoopGroupConfig
 from slam.match_covariance import MatchCovarianceConfig
+from slam.max_mixture import SwitchableConfig
 from slam.motion_prior import MotionPriorConfig
 from slam.types import MappingConfig
 
@@ -86,6 +89,8 @@ class LoopConfig(StrictModel):
                                                "(None: always `kernel`), m")
     residual_chi2: float = Field(16.27, gt=0, description="remove a closure still this inconsistent (χ², "
                                  "3 dof) after optimising")
+    groups: LoopGroupConfig = LoopGroupConfig()
+    edge_switch: EdgeSwitchConfig = EdgeSwitchConfig()
 
 
 class LogSlamConfig(StrictModel):
@@ -100,6 +105,7 @@ class LogSlamConfig(StrictModel):
     motion_prior: MotionPriorConfig = MotionPriorConfig()
     match_covariance: MatchCovarianceConfig = MatchCovarianceConfig()
     hypotheses: HypothesesConfig = HypothesesConfig()
+    switchable: SwitchableConfig = SwitchableConfig()
     loops: LoopConfig = LoopConfig()
     mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes
     final_batch: bool = Field(False, description="also a batch Levenberg-Marquardt pass over the whole graph at "

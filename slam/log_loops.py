@@ -15,15 +15,18 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import gtsam
 import numpy as np
 
-from sim.transforms import se2_between
+from sim.transforms import se2_between, se2_compose
 from slam import se2
-from slam.csm import MatchGrid, search
+from slam.csm import MatchGrid, first_per_cell, search
+from slam.edge_switch import rank_edges
 from slam.icp import IcpTarget, icp
 from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
-from slam.pose_graph import Kernel
+from slam.loop_groups import Pending, largest_group
+from slam.pose_graph import Kernel, gaussian
 
 if TYPE_CHECKING:
     from slam.log_slam import LogSlam
@@ -66,11 +69,17 @@ class LoopFinder:
         self._last_try = -math.inf
         self._last_closure_path = 0.0
         self._descriptors: dict[int, np.ndarray] = {}
+        self.active: dict[int, Closure] = {}  # graph factor index → accepted closure still in the graph
+        self._edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
+        self.pending: list[Pending] = []  # verified but inconsistent closures (`slam.loop_groups`)
+        self._old_edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
+        self.switched: list[int] = []  # front-end edges moved to their alternative peak by a loop group
         self._floor = np.diag([config.sigma_floor_xy ** 2, config.sigma_floor_xy ** 2, config.sigma_floor_yaw ** 2])
 
     @property
     def accepted(self) -> int:
-        return sum(c.accepted for c in self.history)
+        """Closures in the graph now."""
+        return len(self.active)
 
     def descriptor(self, i: int) -> np.ndarray:
         if i not in self._descriptors:
@@ -159,12 +168,129 @@ class LoopFinder:
             g.remove(k)
             g.converge(max_steps=20)
             self.slam.refresh_poses()
-            return self._record(Closure(source, target, relative, score, inliers, rmse, False,
-                                        "inconsistent_after_optimisation"))
+            rejected = self._record(Closure(source, target, relative, score, inliers, rmse, False,
+                                            "inconsistent_after_optimisation"))
+            if self.config.groups.enabled:
+                self._try_group(Pending(target, source, relative, covariance, score, inliers, rmse))
+            return rejected
         self.slam.refresh_poses()
-        self.slam.edges.append((target, source, relative, covariance))
         self._last_closure_path = self.slam.path[source]
-        return self._record(Closure(source, target, relative, score, inliers, rmse, True, "accepted"))
+        closure = Closure(source, target, relative, score, inliers, rmse, True, "accepted")
+        self._activate(k, closure, covariance)
+        return self._record(closure)
+
+    def _try_group(self, new: Pending) -> None:
+        """Keep a closure the graph rejected; once enough pending closures agree pairwise, add them together
+        (`slam.loop_groups`). If they fit, the graph gave way. If not, the group may name one wide front-end
+        match that took the wrong peak (`slam.edge_switch`): that edge is moved to its alternative peak and
+        the group tried again. Accepted closures the group contradicts are removed only if outvoted."""
+        gc, s = self.config.groups, self.slam
+        self.pending.append(new)
+        del self.pending[: max(0, len(self.pending) - gc.max_pending)]
+        members = [self.pending[m] for m in largest_group(self.pending, len(self.pending) - 1, s.poses, s.path, gc)]
+        if len(members) < gc.min_size:
+            return
+        added, fits, broken = self._add_group(members)
+        if len(fits) >= gc.min_size and len(broken) * gc.outvote <= len(fits):
+            self._accept(added, fits, broken)  # fits, contradicting at most a few accepted closures
+            return
+        self._take_out(added)
+        for e, d in self._named_edges(members)[: self.config.edge_switch.tries]:
+            switched = self._switch_edge(e, d)
+            added, fits, broken = self._add_group(members)
+            if len(fits) >= gc.min_size and not broken:
+                self.switched.append(e)
+                self._accept(added, fits, broken)
+                return
+            self._take_out(added)
+            self._unswitch(switched)
+
+    def _add_group(self, members: list[Pending]) -> tuple[dict[int, Pending], dict[int, Pending], list[int]]:
+        """Add the closures, optimise: (added, those that fit, accepted closures that no longer fit)."""
+        g, lim = self.slam.graph, self.config.residual_chi2
+        added = {g.add_between(p.target, p.source, p.relative, p.covariance, self.config.kernel,
+                               self.config.kernel_width): p for p in members}
+        g.converge(max_steps=50)
+        fits = {k: p for k, p in added.items() if g.chi2(k) <= lim}
+        return added, fits, [k for k in self.active if g.chi2(k) > lim]
+
+    def _take_out(self, added: dict[int, Pending]) -> None:
+        for k in added:
+            self.slam.graph.remove(k)
+        self.slam.graph.converge(max_steps=50)
+        self.slam.refresh_poses()
+
+    def _accept(self, added: dict[int, Pending], fits: dict[int, Pending], broken: list[int]) -> None:
+        g, s = self.slam.graph, self.slam
+        for k in set(added) - set(fits):
+            g.remove(k)
+        for k in broken:  # accepted closures the group outvotes
+            c = self.active[k]
+            g.remove(k)
+            self._deactivate(k)
+            self._record(Closure(c.source, c.target, c.relative, c.score, c.inliers, c.rmse, False,
+                                 "removed_by_group"))
+        g.converge(max_steps=50)
+        s.refresh_poses()
+        for k, p in fits.items():
+            c = Closure(p.source, p.target, p.relative, p.score, p.inliers, p.rmse, True, "accepted_in_group")
+            self._activate(k, c, p.covariance)
+            self._record(c)
+            self._last_closure_path = max(self._last_closure_path, s.path[p.source])
+        taken = {id(p) for p in added.values()}
+        self.pending = [p for p in self.pending if id(p) not in taken]
+
+    def _named_edges(self, members: list[Pending]) -> list[tuple[int, np.ndarray]]:
+        """Wide front-end edges in the loops' common stretch whose score surface has a peak where the group
+        wants the path moved (`slam.edge_switch`), best supported first, with that move (world frame)."""
+        s, cfg = self.slam, self.config.edge_switch
+        if not cfg.enabled:
+            return []
+        moves = np.array([se2_compose(s.poses[p.target], p.relative) for p in members])
+        here = np.array([s.poses[p.source] for p in members])
+        yaw = float(np.median(np.remainder(moves[:, 2] - here[:, 2] + math.pi, math.tau) - math.pi))
+        if abs(yaw) > cfg.max_yaw:
+            return []
+        d = np.median(moves[:, :2] - here[:, :2], axis=0)
+        lo, hi = max(p.target for p in members), min(p.source for p in members)
+        crossed = [(c.target, c.source) for c in self.active.values()]  # edges an accepted closure holds
+        cand = [e for e in range(lo + 1, hi + 1) if not any(t < e <= u for t, u in crossed)]
+        ranked = rank_edges(cand, s.surfaces, s.poses, d, cfg)
+        return [(e, d) for e, _ in ranked]
+
+    def _switch_edge(self, e: int, d: np.ndarray) -> tuple[int, int, gtsam.NonlinearFactor]:
+        """Move front-end edge e so that pose e (and the path after it) shifts by d: (e, new factor index,
+        old factor)."""
+        s = self.slam
+        moved = (s.poses[e][0] + float(d[0]), s.poses[e][1] + float(d[1]), s.poses[e][2])
+        rel = se2_between(s.poses[e - 1], moved)
+        k = next(k for k, (i, j, _, _) in enumerate(s.edges) if i == e - 1 and j == e)
+        cov = s.edges[k][3]
+        index, old = s.graph.swap(s.graph.chain[e], gtsam.BetweenFactorPose2(e - 1, e, gtsam.Pose2(*rel),
+                                                                           gaussian(cov)))
+        s.graph.chain[e] = index
+        self._old_edge[e] = s.edges[k]
+        s.edges[k] = (e - 1, e, rel, cov)  # graph.g2o holds the moved edge
+        return e, index, old
+
+    def _unswitch(self, switched: tuple[int, int, gtsam.NonlinearFactor]) -> None:
+        e, index, old = switched
+        g = self.slam.graph
+        g.chain[e] = g.swap(index, old)[0]
+        k = next(k for k, (i, j, _, _) in enumerate(self.slam.edges) if i == e - 1 and j == e)
+        self.slam.edges[k] = self._old_edge.pop(e)
+        g.converge(max_steps=50)
+        self.slam.refresh_poses()
+
+    def _activate(self, k: int, closure: Closure, covariance: np.ndarray) -> None:
+        self.active[k] = closure
+        self._edge[k] = (closure.target, closure.source, closure.relative, covariance)
+        self.slam.edges.append(self._edge[k])  # for graph.g2o
+
+    def _deactivate(self, k: int) -> None:
+        del self.active[k]
+        edge = self._edge.pop(k)
+        self.slam.edges[:] = [e for e in self.slam.edges if e is not edge]
 
     def kernel_for(self, target: int, source: int, relative: se2.PoseTuple) -> Kernel:
         """The configured kernel, or Cauchy for a closure that moves the estimate by more than
@@ -185,6 +311,4 @@ class LoopFinder:
 
 
 def _thin(points: np.ndarray, spacing: float) -> np.ndarray:
-    cells = np.floor(points / spacing).astype(np.int64)
-    _, first = np.unique(cells, axis=0, return_index=True)
-    return points[np.sort(first)]
+    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]

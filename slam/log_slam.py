@@ -14,19 +14,22 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import gtsam
 import numpy as np
 
 from planning.grid import OccupancyGrid
 from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
-from slam.csm import MatchGrid, search
+from slam.csm import MatchGrid, first_per_cell, search
+from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, decide
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
 from slam.mapping import OccupancyMapper
-from slam.match_covariance import ambiguous_covariance
+from slam.match_covariance import ambiguous_covariance, translation_surface
+from slam.max_mixture import max_mixture_factor, switchable
 from slam.motion_prior import at_window_edge, predicted_step
 from slam.pose_graph import PoseGraph
 from slam.surface_fill import fill_surfaces
@@ -36,9 +39,7 @@ def thin(points: np.ndarray, spacing: float) -> np.ndarray:
     """One point per `spacing` cell (the first in scan order), scan order kept."""
     if len(points) == 0:
         return points
-    cells = np.floor(points / spacing).astype(np.int64)
-    _, first = np.unique(cells, axis=0, return_index=True)
-    return points[np.sort(first)]
+    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]
 
 
 def subsample(points: np.ndarray, n: int) -> np.ndarray:
@@ -74,6 +75,9 @@ class LogSlam:
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
         self._local_filled = False
         self._next_scan: LidarScan | None = None
+        self._wide = False
+        self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
+        self._mixtures: dict[int, object] = {}  # node → its incoming max-mixture edge (kept alive here)
         self.loops = LoopFinder(cfg.loops, self)
         fe = cfg.frontend
         self._edge_floor = np.diag([fe.sigma_floor_xy ** 2, fe.sigma_floor_xy ** 2, fe.sigma_floor_yaw ** 2])
@@ -112,7 +116,7 @@ class LogSlam:
             pose, rel, cov = guess, delta, self._odom_cov if has_odom else self._prior_cov
         else:
             pose, rel = matched, se2_between(prev, matched)
-        self.graph.add_pose(pose, rel, cov)
+        self.graph.add_pose(pose, rel, cov, self._switchable(i, rel, cov) if matched is not None else None)
         self.edges.append((i - 1, i, rel, cov))
         self._append(scan.stamp, pose, pts, no_ret, o, self.path[-1] + math.hypot(rel[0], rel[1]))
         if cfg.loops.enabled:
@@ -172,14 +176,17 @@ class LogSlam:
         pose = fit.pose
         if not fit.converged or math.hypot(pose[0] - res.pose[0], pose[1] - res.pose[1]) > 2 * grid.resolution:
             pose = res.pose  # ICP wandered off the correlative optimum: keep the lattice pose
+        self._wide = wide
         if wide:
             self.stats.wide += 1
         else:
             self.stats.matched += 1
         info = fit.information + 1e-9 * np.eye(3)
         if wide:  # a second peak nearly as good (a corridor): the edge is weak along it
-            amb = ambiguous_covariance(grid, subsample(pts, fe.wide_points), pose,
-                                       fe.wide_window_xy, fe.wide_window_yaw, self.config.match_covariance)
+            wp, mc = subsample(pts, fe.wide_points), self.config.match_covariance
+            surface = translation_surface(grid, wp, pose, fe.wide_window_xy, mc.step)
+            self.surfaces[len(self.poses)] = Surface.of(*surface, pose)  # for slam.edge_switch
+            amb = ambiguous_covariance(grid, wp, pose, fe.wide_window_xy, fe.wide_window_yaw, mc, surface)
             if amb is not None:
                 self.stats.ambiguous += 1
                 return pose, np.linalg.inv(info) + self._edge_floor + amb
@@ -190,6 +197,17 @@ class LogSlam:
             pose = se2_compose(guess, (float(fused[0]), float(fused[1]), float(fused[2])))
             info = info + odo_info
         return pose, np.linalg.inv(info) + self._floor(se2_between(self.poses[-1], pose))
+
+    def _switchable(self, i: int, rel: se2.PoseTuple, cov: np.ndarray) -> gtsam.CustomFactor | None:
+        """A wide match's edge as a max-mixture with a broad null component (`slam.max_mixture`): a wrong
+        corridor peak can then be overridden by agreeing loop closures."""
+        sw = self.config.switchable
+        if not (sw.enabled and self._wide):
+            return None
+        factor, mix = max_mixture_factor(i - 1, i, switchable(rel, cov, sw.null_sigma_xy, sw.null_sigma_yaw,
+                                                              sw.null_weight))
+        self._mixtures[i] = mix
+        return factor
 
     def _floor(self, rel: se2.PoseTuple) -> np.ndarray:
         """The edge's σ floor, as a variance that grows with the ground the step covered: scan-to-map drift
@@ -231,7 +249,8 @@ class LogSlam:
             mp = self.config.motion_prior
             grid_pts = thin(np.vstack([pts] + [se2.transform_points(self.poses[k], fill_surfaces(
                 self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)) for k in idx]), fe.resolution / 2)
-        self._local = (MatchGrid(grid_pts, fe.resolution, fe.sigma, margin=1.0), IcpTarget.from_points(pts))
+        margin = 1.5 + 2 * fe.wide_window_xy if fill else 1.0  # wide: a zero margin the window fits in (csm)
+        self._local = (MatchGrid(grid_pts, fe.resolution, fe.sigma, margin=margin), IcpTarget.from_points(pts))
         self._local_at, self._local_pose, self._local_filled = n - 1, last, fill
         self.stats.local_map_builds += 1
         return self._local

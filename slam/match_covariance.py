@@ -50,17 +50,26 @@ def _moment(offsets: np.ndarray, scores: np.ndarray, delta: float) -> np.ndarray
     return np.einsum("k,ki,kj->ij", w, offsets, offsets)
 
 
-def score_covariance(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, window_xy: float,
-                     window_yaw: float, config: MatchCovarianceConfig) -> np.ndarray:
-    """3×3 covariance (x, y, yaw in the world frame) of the match `pose` from the score surface over the
-    window (± window_xy, ± window_yaw around `pose`)."""
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    n = max(1, math.floor(window_xy / config.step))
-    g = np.arange(-n, n + 1) * config.step
+def translation_surface(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, window_xy: float,
+                        step: float) -> tuple[np.ndarray, np.ndarray]:
+    """(offsets (k, 2) in the world frame on a `step` lattice over ± window_xy, their scores) at `pose`'s
+    rotation."""
+    n = max(1, math.floor(window_xy / step))
+    g = np.arange(-n, n + 1) * step
     gx, gy = np.meshgrid(g, g, indexing="ij")
     offs = np.column_stack([gx.ravel(), gy.ravel()])
+    return offs, surface_scores(grid, np.asarray(points, dtype=np.float64).reshape(-1, 2), pose, offs)
+
+
+def score_covariance(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, window_xy: float,
+                     window_yaw: float, config: MatchCovarianceConfig,
+                     surface: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """3×3 covariance (x, y, yaw in the world frame) of the match `pose` from the score surface over the
+    window (± window_xy, ± window_yaw around `pose`); `surface`: `translation_surface`'s result, if known."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    offs, scores = surface or translation_surface(grid, pts, pose, window_xy, config.step)
     cov = np.zeros((3, 3))
-    cov[:2, :2] = _moment(offs, surface_scores(grid, pts, pose, offs), config.delta)
+    cov[:2, :2] = _moment(offs, scores, config.delta)
     m = max(1, math.floor(window_yaw / config.yaw_step))
     yaws = np.arange(-m, m + 1) * config.yaw_step
     c, s = np.cos(pose[2] + yaws), np.sin(pose[2] + yaws)
@@ -73,12 +82,13 @@ def score_covariance(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, w
 
 
 def ambiguous_covariance(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, window_xy: float,
-                         window_yaw: float, config: MatchCovarianceConfig) -> np.ndarray | None:
+                         window_yaw: float, config: MatchCovarianceConfig,
+                         surface: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
     """The score-surface covariance in the frame of `pose` (a graph edge's frame) when it shows an ambiguous
     match (largest translation σ > min_sigma), else None."""
     if not config.enabled:
         return None
-    cov = score_covariance(grid, points, pose, window_xy, window_yaw, config)
+    cov = score_covariance(grid, points, pose, window_xy, window_yaw, config, surface)
     if math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2]).max()), 0.0)) <= config.min_sigma:
         return None
     c, s = math.cos(pose[2]), math.sin(pose[2])

@@ -36,12 +36,13 @@ class PoseGraph:
         self._prior = gtsam.noiseModel.Diagonal.Sigmas(np.array(prior_sigmas, dtype=np.float64))
         self._relin = relinearize_threshold
         self._isam = self._new_isam()
-        self._factors: list[gtsam.NoiseModelFactor | None] = []  # index = iSAM2 factor index (None: removed)
+        self._factors: list[gtsam.NonlinearFactor | None] = []  # index = iSAM2 factor index (None: removed)
         self._estimate = gtsam.Values()
         self._pending = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
         self._poses: np.ndarray | None = None  # cache of poses(), dropped whenever the estimate changes
         self.size = 0
+        self.chain: dict[int, int] = {}  # pose i → index of the factor from pose i − 1 (its front-end edge)
 
     def _new_isam(self) -> gtsam.ISAM2:
         params = gtsam.ISAM2Params()
@@ -52,15 +53,19 @@ class PoseGraph:
     # ---- building ------------------------------------------------------------------------------------
 
     def add_pose(self, guess: se2.PoseTuple, odometry: se2.PoseTuple | None = None,
-                 covariance: np.ndarray | None = None) -> int:
-        """Add the next pose; the first is anchored by a prior, later ones by an odometry factor."""
+                 covariance: np.ndarray | None = None, factor: gtsam.NonlinearFactor | None = None) -> int:
+        """Add the next pose; the first is anchored by a prior, later ones by an odometry factor (or by
+        `factor`, e.g. a max-mixture edge from pose i − 1, instead)."""
         i = self.size
-        if i == 0:
+        if factor is not None and i > 0:
+            self.chain[i] = self._queue(factor)
+        elif i == 0:
             self._queue(gtsam.PriorFactorPose2(0, gtsam.Pose2(*guess), self._prior))
         else:
             if odometry is None or covariance is None:
                 raise FleetError(ErrorCode.INVALID_ARGUMENT, "poses after the first need odometry and covariance")
-            self._queue(gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(*odometry), gaussian(covariance)))
+            self.chain[i] = self._queue(gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(*odometry),
+                                                                 gaussian(covariance)))
         self._pending_values.insert(i, gtsam.Pose2(*guess))
         self._poses = None
         self.size += 1
@@ -75,7 +80,21 @@ class PoseGraph:
         noise = robust(gaussian(covariance), kernel, kernel_width)
         return self._queue(gtsam.BetweenFactorPose2(i, j, gtsam.Pose2(*relative), noise))
 
-    def _queue(self, factor: gtsam.NoiseModelFactor) -> int:
+    def swap(self, factor_index: int, factor: gtsam.NonlinearFactor) -> tuple[int, gtsam.NonlinearFactor]:
+        """Replace a factor: (the new one's index, the old factor, to swap back later)."""
+        old = self._factors[factor_index]
+        if old is None:
+            raise FleetError(ErrorCode.NOT_FOUND, f"factor {factor_index} was removed")
+        self.update()  # flush the queue: iSAM2 numbers factors in the order they arrive
+        graph = gtsam.NonlinearFactorGraph()
+        graph.add(factor)
+        self._factors.append(factor)
+        self._isam.update(graph, gtsam.Values(), [factor_index])  # in one step: the chain never breaks
+        self._factors[factor_index] = None
+        self._set_estimate()
+        return len(self._factors) - 1, old
+
+    def _queue(self, factor: gtsam.NonlinearFactor) -> int:
         self._pending.add(factor)
         self._factors.append(factor)
         return len(self._factors) - 1
@@ -165,6 +184,7 @@ class PoseGraph:
         f = self._factors[factor_index]
         if f is None:
             raise FleetError(ErrorCode.NOT_FOUND, f"factor {factor_index} was removed")
+        assert isinstance(f, gtsam.NoiseModelFactor)  # every factor here is one (between, prior, custom)
         model = f.noiseModel()
         if isinstance(model, gtsam.noiseModel.Robust):
             model = model.noise()

@@ -29,6 +29,8 @@ from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance
 from slam.motion_prior import at_window_edge, predicted_step
 from slam.pose_graph import PoseGraph
+from slam.scan_refine import BicubicField, refine
+from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
 
 
@@ -73,6 +75,7 @@ class LogSlam:
         self._local_at = -1  # node index the local map was last built at
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
         self._local_filled = False
+        self._evidence = HitMissGrid(cfg.frontend.resolution)
         self._next_scan: LidarScan | None = None
         self.loops = LoopFinder(cfg.loops, self)
         fe = cfg.frontend
@@ -172,6 +175,10 @@ class LogSlam:
         pose = fit.pose
         if not fit.converged or math.hypot(pose[0] - res.pose[0], pose[1] - res.pose[1]) > 2 * grid.resolution:
             pose = res.pose  # ICP wandered off the correlative optimum: keep the lattice pose
+        if fe.refinement == "smooth":
+            ref = refine(BicubicField(grid.field, grid.origin, grid.resolution), pts, res.pose, fe.refine)
+            if math.hypot(ref.pose[0] - res.pose[0], ref.pose[1] - res.pose[1]) <= 2 * grid.resolution:
+                pose = ref.pose
         if wide:
             self.stats.wide += 1
         else:
@@ -226,6 +233,10 @@ class LogSlam:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
         pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])
         pts = thin(pts, fe.resolution / 2)
+        if fe.local_map_min_log_odds is not None:  # drop what the window's scans saw through
+            self._evidence.sync(idx, self.poses, self.points)
+            seen = pts[self._evidence.log_odds(pts) > fe.local_map_min_log_odds]
+            pts = seen if len(seen) >= 10 else pts
         grid_pts = pts
         if fill:
             mp = self.config.motion_prior

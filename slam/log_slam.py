@@ -229,6 +229,11 @@ class LogSlam:
             return self._local
         path = np.array(self.path)
         idx = np.nonzero(path >= path[-1] - fe.local_map_distance)[0]
+        if fe.local_map_min_log_odds is not None:
+            # the first scan of every path bucket: a choice that stays put as the window slides, so each scan
+            # is ray-cast into the evidence once when it enters and once when it leaves
+            bucket = np.floor(path[idx] / (fe.local_map_distance / max(fe.local_map_scans - 1, 1))).astype(np.int64)
+            idx = idx[np.unique(bucket, return_index=True)[1]]
         if len(idx) > fe.local_map_scans:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
         pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])

@@ -11,7 +11,7 @@ Per log: ATE RMSE (after SE(2) alignment) against the laser lines' corrected pos
   old   the previous pipeline (slam.SlamPipeline: KISS-ICP + keyframe ICP loop closure), same odometry
 
     nice -n 10 .venv/bin/python benchmarks/slam_real.py [--logs orebro,seattle|PATH,...] [--data DIR]
-                                                         [--no-old] [--out DIR]
+                                                         [--no-old] [--out DIR] [--config FILE]
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from typing import Any  # noqa: E402
 
+from sim.config import load_yaml  # noqa: E402
 from slam.log_config import LogSlamConfig  # noqa: E402
 from slam.log_eval import evaluate  # noqa: E402
 from slam.log_run import load_log, run_slam, write_outputs  # noqa: E402
@@ -89,6 +90,8 @@ def main() -> int:
     ap.add_argument("--data", type=Path, default=DATA, help=f"folder of CARMEN logs (default {DATA})")
     ap.add_argument("--no-old", action="store_true", help="skip the previous pipeline (slow on freiburg-079)")
     ap.add_argument("--out", type=Path, default=None, help="keep each run's outputs here (default: a temp dir)")
+    ap.add_argument("--config", type=Path, default=None, help="YAML with LogSlamConfig fields instead of the "
+                    "default (e.g. a baseline for a before/after table)")
     args = ap.parse_args()
     paths = find_logs(args.data, args.logs)
     if not paths:
@@ -98,7 +101,7 @@ def main() -> int:
     rows = []
     for path in paths:
         name = log_name(path)
-        cfg = LogSlamConfig()
+        cfg = load_yaml(args.config, LogSlamConfig) if args.config else LogSlamConfig()
         log = load_log(path, cfg)
         t0 = time.perf_counter()
         slam = run_slam(log, cfg)

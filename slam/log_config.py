@@ -14,6 +14,7 @@ from slam.loop_groups import LoopGroupConfig
 from slam.match_covariance import MatchCovarianceConfig
 from slam.max_mixture import SwitchableConfig
 from slam.motion_prior import MotionPriorConfig
+from slam.scan_refine import RefineConfig
 from slam.types import MappingConfig
 
 
@@ -54,6 +55,17 @@ class FrontEndConfig(StrictModel):
                                          "floor variance")
     odom_sigma_xy: float = Field(0.2, gt=0, description="σ of an edge from odometry alone (match failed), m")
     odom_sigma_yaw: float = Field(0.1, gt=0, description="rad")
+    refinement: Literal["icp", "smooth"] = Field("icp", description="sub-cell refinement of the correlative "
+                                                 "match: point-to-line ICP, or the smooth (bicubic) map cost "
+                                                 "of `slam.scan_refine` (ICP then only gives the edge's "
+                                                 "information)")
+    refine: RefineConfig = RefineConfig()
+    local_map_min_log_odds: float | None = Field(None, description="local map: keep a point only if its cell's "
+                                                 "log-odds summed over the window's scans (+0.85 per scan "
+                                                 "with a return there, −0.4 per scan that saw through it) is "
+                                                 "above this (None: keep every point; 0.5 measured: edmonton "
+                                                 "0.44 → 0.26 m but orebro 0.89 → 3.7 m, see "
+                                                 "docs/benchmarks-slam.md), see slam.submap_grid")
 
 
 class LoopConfig(StrictModel):

@@ -32,6 +32,8 @@ from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
 from slam.motion_prior import at_window_edge, predicted_step
 from slam.pose_graph import PoseGraph
+from slam.scan_refine import BicubicField, refine
+from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
 
 
@@ -74,6 +76,7 @@ class LogSlam:
         self._local_at = -1  # node index the local map was last built at
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
         self._local_filled = False
+        self._evidence = HitMissGrid(cfg.frontend.resolution)
         self._next_scan: LidarScan | None = None
         self._wide = False
         self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
@@ -177,6 +180,10 @@ class LogSlam:
         if not fit.converged or math.hypot(pose[0] - res.pose[0], pose[1] - res.pose[1]) > 2 * grid.resolution:
             pose = res.pose  # ICP wandered off the correlative optimum: keep the lattice pose
         self._wide = wide
+        if fe.refinement == "smooth":
+            ref = refine(BicubicField(grid.field, grid.origin, grid.resolution), pts, res.pose, fe.refine)
+            if math.hypot(ref.pose[0] - res.pose[0], ref.pose[1] - res.pose[1]) <= 2 * grid.resolution:
+                pose = ref.pose
         if wide:
             self.stats.wide += 1
         else:
@@ -240,10 +247,19 @@ class LogSlam:
             return self._local
         path = np.array(self.path)
         idx = np.nonzero(path >= path[-1] - fe.local_map_distance)[0]
+        if fe.local_map_min_log_odds is not None:
+            # the first scan of every path bucket: a choice that stays put as the window slides, so each scan
+            # is ray-cast into the evidence once when it enters and once when it leaves
+            bucket = np.floor(path[idx] / (fe.local_map_distance / max(fe.local_map_scans - 1, 1))).astype(np.int64)
+            idx = idx[np.unique(bucket, return_index=True)[1]]
         if len(idx) > fe.local_map_scans:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
         pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])
         pts = thin(pts, fe.resolution / 2)
+        if fe.local_map_min_log_odds is not None:  # drop what the window's scans saw through
+            self._evidence.sync(idx, self.poses, self.points)
+            seen = pts[self._evidence.log_odds(pts) > fe.local_map_min_log_odds]
+            pts = seen if len(seen) >= 10 else pts
         grid_pts = pts
         if fill:
             mp = self.config.motion_prior

@@ -1,17 +1,24 @@
 """Congestion-aware routing (fleet/traffic/congestion.py): the toll on busy cells in closed form, and PIBT on
-those fields sending part of a stream of robots round a longer corridor instead of all through the short one.
-Synchronous PIBT steps (sim time in steps), no timing."""
+those fields sending part of a stream of robots round a longer corridor instead of all through the short one
+(synchronous PIBT steps, no timing). And the order among urgent robots (manager.py `urgent_rank`)."""
 
 from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.sparse import csr_matrix
 
-from fleet.traffic import PIBT
+from fleet import FleetConfig, FleetService
+from fleet.traffic import PIBT, TrafficManager, enable_traffic
 from fleet.traffic.congestion import CongestionFields
+from sim import Pose2D
+from sim.errors import FleetError
+from tests.fleet.test_traffic_async import world
 from tests.fleet.test_traffic_jam import grid
 
 
@@ -98,3 +105,43 @@ def test_congestion_sends_part_of_a_stream_round_the_long_corridor() -> None:
     ok, steps_cong, used = stream(4.0)
     assert ok and used, "with the toll some robots take the long corridor"
     assert steps_cong < steps_static and steps_cong <= 25, (steps_cong, steps_static)  # 17 vs 34 here
+
+
+class Recorder:
+    """Stands in for PIBT to record the priorities the manager plans with (everybody waits)."""
+
+    def __init__(self) -> None:
+        self.priority = np.zeros(0)
+        self.pushes: list[tuple[int, int]] = []
+
+    def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray, frozen: Sequence[int] = (),
+             prefer: Sequence[int] | None = None) -> list[int]:
+        self.priority = priority.copy()
+        return list(cur)
+
+
+@pytest.mark.parametrize("rank", ["since_progress", "since_urgent"])
+def test_urgent_robots_ranked_by_time_without_progress(tmp_path: Path, rank: str) -> None:
+    # u0 became urgent first (t = 20) but came closer since (t = 25); u1 became urgent at t = 30, no progress
+    # since t = 18 (pushed back, say); n2 is not urgent. At t = 40, since_progress puts u1 (22 s without
+    # progress) above u0 (15 s); since_urgent (the fourth landing's rule) keeps u0 (urgent 20 s) above u1 (10 s).
+    with FleetService(FleetConfig(world=str(world(tmp_path, "room", (2.8, 1.8))), seed=0, physics_hz=20.0,
+                                  control_hz=10.0)) as svc:
+        tm = enable_traffic(svc, cell=1.0, urgent_s=12.0, urgent_rank=rank)
+        spots = [(-1.5, -0.5), (0.5, -0.5), (1.5, 0.5)]
+        for k, (x, y) in enumerate(spots):
+            svc.spawn_robot(f"r{k}", Pose2D(x, y, 0.0))
+            tm.add(f"r{k}")
+        for k in range(3):
+            tm.go(f"r{k}", *spots[(k + 1) % 3])
+        rec = Recorder()
+        tm.pibt = rec  # type: ignore[assignment]
+        tm.urgent_at[:] = [20.0, 30.0, math.inf]
+        tm.best_at[:] = [25.0, 18.0, 39.0]
+        tm.since[:] = [0.0, 0.0, 0.0]
+        tm._plan(40.0)
+        p = rec.priority
+        assert min(p[0], p[1]) > p[2], "urgent robots outrank the others"
+        assert (p[1] > p[0]) == (rank == "since_progress"), p
+        with pytest.raises(FleetError, match="urgent_rank"):
+            TrafficManager(svc, urgent_rank="oldest")  # type: ignore[arg-type]

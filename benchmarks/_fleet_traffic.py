@@ -29,14 +29,16 @@ TOUCH_M = 1e-3  # footprint circles closer than this count as touching
 def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 1.0, speed: float = 0.8,
                 physics_hz: float = 50.0, window: int = 1, lidar: str = "360 beams 10 Hz",
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
-                highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True) -> dict[str, Any]:
+                highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
+                congestion: float = 0.0, urgent_rank: str = "since_progress") -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
         rng = np.random.default_rng(seed)
         tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed, window=window, priority=priority,
                              urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost,
-                             push_frozen=push_frozen)
+                             push_frozen=push_frozen, congestion=congestion,
+                             urgent_rank=urgent_rank)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -110,6 +112,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         in_progress = int(np.count_nonzero(tm.pending))
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
                 f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
+                f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
                 f"window {window}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,

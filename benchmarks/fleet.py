@@ -52,7 +52,12 @@ RULES: dict[str, dict[str, Any]] = {  # traffic layer: the rules against long wa
             "window": 2},
     "l3": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": False,
            "window": 2},
-    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": True}}
+    "l4": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": True,
+           "urgent_rank": "since_urgent"},
+    "new": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": True,
+            "urgent_rank": "since_progress"},
+    "cong": {"urgent_s": 12.0, "yield_aside": True, "highway": 4.0, "lane_cost": 3.0, "push_frozen": True,
+             "urgent_rank": "since_progress"}}
 LIDAR_FULL = {"beams": 360, "rate_hz": 10.0}  # issue 17's traffic runs: the full lidar on every robot
 LIDAR_OFF = {"enabled": False}
 
@@ -171,7 +176,12 @@ def main() -> None:
                     help="traffic layer: rules against long waits, one run each: old = none (window 2); l3 = the "
                          "third landing's (lanes: highway 4, lane_cost 3; aging: urgent after 12 s without "
                          "progress; yield aside; window 2); new = l3 with window --window (default 1) and robots "
-                         "with a full window can still be pushed")
+                         "with a full window can still be pushed, the urgent ranked by time without progress (l4: "
+                         "by time since they became urgent, the fourth landing's); cong = new with congestion-aware "
+                         "routing (--congestion)")
+    ap.add_argument("--congestion", type=float, default=4.0,
+                    help="traffic layer, rule cong: toll per unit of recent occupancy for entering a cell "
+                         "(congestion-aware routing, fleet/traffic/congestion.py; default 4)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -199,6 +209,7 @@ def main() -> None:
                     for prio, rule in itertools.product(a.priority, a.rule):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, **RULES[rule]},
+                                        congestion=a.congestion if rule == "cong" else 0.0,
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

@@ -14,7 +14,7 @@ if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
 
 SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed", "priority", "urgent_s", "yield_aside",
-            "highway")
+            "highway", "congestion", "urgent_rank")
 
 
 def traffic_layer(service: FleetService) -> TrafficManager | None:

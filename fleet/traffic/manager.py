@@ -20,8 +20,9 @@ it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities en
 edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
 oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
 column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
-that are not urgent until it reaches its goal) and yielding aside (pibt.py: a pushed robot prefers a node off
-its pusher's way).
+that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
+yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
+routing (congestion.py).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
 from fleet.traffic.pibt import PIBT
@@ -46,6 +48,7 @@ if TYPE_CHECKING:
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
+URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (see _plan)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -59,6 +62,7 @@ class TrafficManager:
                  stall_s: float = 10.0, window: int = 1, lane_cost: float = 3.0,
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
+                 congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
@@ -84,9 +88,19 @@ class TrafficManager:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_s must be > 0 s (or None: off), got "
                              f"{urgent_s}")
         self.urgent_s = urgent_s
+        if urgent_rank not in URGENT_RANKS:
+            raise unknown_name("traffic urgent_rank", urgent_rank, list(URGENT_RANKS), ErrorCode.INVALID_ARGUMENT)
+        self.urgent_rank = urgent_rank
         if not (math.isfinite(highway) and highway >= 1.0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic highway must be ≥ 1 (1: no lanes), got {highway}")
         self.pibt.yield_aside = yield_aside
+        if not (math.isfinite(congestion) and congestion >= 0.0):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic congestion must be ≥ 0 (0: off), got {congestion}")
+        # Congestion-aware routing (congestion.py): PIBT ranks a robot's next cells by fields with a toll on busy
+        # cells; the waits reported keep the static fields.
+        self.congestion = CongestionFields(self.grid.adjacency, congestion) if congestion > 0 else None
+        if self.congestion is not None:
+            self.pibt.field = self.congestion.to
         self.pibt.push_frozen = push_frozen
         self.window = window
         self.names: list[str] = []
@@ -244,6 +258,8 @@ class TrafficManager:
             for i in on[straight].tolist():
                 if sched.can_claim(i):
                     self.claim[i], self.claim_step[i] = sched.claim(i)
+        if self.congestion is not None:
+            self.congestion.observe(np.concatenate([self.a, self.b]), dt)
         # 4. profiles and commands (numpy over all robots)
         v, w = self._drive(now, dt, pos, yaw)
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
@@ -344,7 +360,13 @@ class TrafficManager:
             late = self.pending & np.isinf(self.urgent_at) & (now - self.best_at >= self.urgent_s)
             self.urgent_at[late] = now
             urgent = np.isfinite(self.urgent_at)
-            priority = np.where(urgent, URGENT + (now - self.urgent_at), priority)
+            # Among the urgent: the longest without progress first (since_progress), so an urgent robot pushed
+            # back by older urgent ones gets ahead of them until it has regained its ground; each change of order
+            # needs a robot to come strictly closer than its best, so the order cannot cycle for ever.
+            order = self.best_at if self.urgent_rank == "since_progress" else self.urgent_at
+            priority = np.where(urgent, URGENT + (now - order), priority)
+        if self.congestion is not None:
+            self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
@@ -386,7 +408,9 @@ class TrafficManager:
     def describe(self) -> dict[str, Any]:
         return {"robots": len(self.names), "cells": len(self.grid), "cell_m": self.grid.cell,
                 "window": self.window, "priority": self.priority, "plan_step": self.sched.step,
-                "fields_computed": self.grid.fields.computed, "open_deadlocks": len(self.open_stalls),
+                "fields_computed": self.grid.fields.computed,
+                "congestion_fields": self.congestion.computed if self.congestion is not None else 0,
+                "open_deadlocks": len(self.open_stalls),
                 "longest_open_deadlock_s": max((self.service.world.time - t0 + self.stall_s
                                                 for t0, _, _ in self.open_stalls.values()), default=0.0),
                 **self.stats}

@@ -93,6 +93,11 @@ class TrafficSection(StrictModel):
     urgent_s: float | None = Field(12.0, gt=0, description="a robot not closer for this long outranks the rest "
                                    "until it arrives (null: off)")
     yield_aside: bool = Field(True, description="a pushed robot prefers a cell its pusher does not need next")
+    urgent_rank: Literal["since_progress", "since_urgent"] = Field(
+        "since_progress", description="order among urgent robots: longest without getting closer first, or first "
+        "to become urgent first")
+    congestion: float = Field(0.0, ge=0, le=100, description="toll per unit of a cell's recent occupancy in the "
+                              "fields robots pick moves by (0: off; for fleets that saturate an aisle)")
 
 
 class TaskEntry(StrictModel):

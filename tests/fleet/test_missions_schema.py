@@ -140,3 +140,17 @@ def test_registry_refuses_a_second_registration_and_lists_names():
         reg.register("w", W)(lambda: None)
     with pytest.raises(FleetError, match="known widgets: w"):
         reg.get("v")
+
+
+def test_every_traffic_key_is_a_layer_setting_and_bad_values_are_named() -> None:
+    from fleet.missions.schema import TrafficSection
+    from fleet.traffic.layer import SETTINGS
+
+    section = TrafficSection.model_validate({"urgent_rank": "since_urgent", "congestion": 4})
+    keys = set(section.model_dump(exclude={"type"}))
+    assert keys <= set(SETTINGS), sorted(keys - set(SETTINGS))
+    assert section.urgent_rank == "since_urgent" and section.congestion == 4
+    with pytest.raises(ValueError, match="urgent_rank"):
+        TrafficSection.model_validate({"urgent_rank": "oldest"})
+    with pytest.raises(ValueError, match="congestion"):
+        TrafficSection.model_validate({"congestion": -1})

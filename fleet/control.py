@@ -105,18 +105,18 @@ class ControlLoop:
             desired.update(fixed)
         self.last_desired = desired
         f = world.table.f
-        names, vs, ws = [], [], []
+        rows, vs, ws = [], [], []
         for robot, (v, w) in desired.items():  # 4. the envelope gates everything
             i = world.table.index(robot)
             gv, gw, why = safety.gate(robot, v, w, float(f["x"][i]), float(f["y"][i]), float(f["yaw"][i]))
             if why == "e-stop":
                 world.emergency_stop(robot)
             else:
-                names.append(robot)
+                rows.append(i)
                 vs.append(gv)
                 ws.append(gw)
-        if names:  # the fleet's commands in one call
-            world.set_cmd_vels(names, vs, ws)
+        if rows:  # the fleet's commands in one call, by the rows already looked up
+            world.set_cmd_vels(np.array(rows, dtype=np.int64), vs, ws)
         self._near_misses(now)
 
     def after_step(self, before: tuple[np.ndarray, np.ndarray]) -> None:

@@ -42,6 +42,9 @@ class ModelRegistry:
         self.records: dict[str, ModelRecord] = {}
         self.world_meta: WorldDescription = WorldDescription(name="world")
         self.version = 0  # bumped whenever bodies are added, removed or moved
+        # bumped only when static bodies are (or a snapshot restore may have moved them): what caches of the
+        # static scene (obstacle boxes, the ray caster's BVH) key on, so moving a movable model keeps them
+        self.static_version = 0
         self._aabb_cache: tuple[int, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     # ---- building ----------------------------------------------------------------------------------
@@ -92,7 +95,7 @@ class ModelRegistry:
         self.records[model.name] = ModelRecord(model.name, list(built.body_uids), built.link_names, model,
                                                "ground" if is_ground else "sdf", model.static,
                                                body0_init=self._body_matrix(built.body_uids[0]))
-        self.version += 1
+        self._changed(model.static)
 
     def add_urdf(self, name: str, path: str, pose: Pose3D, static: bool) -> None:
         self._check_new(name)
@@ -106,7 +109,7 @@ class ModelRegistry:
         for j in range(p.getNumJoints(uid, physicsClientId=self.client)):
             links[j] = p.getJointInfo(uid, j, physicsClientId=self.client)[12].decode()
         self.records[name] = ModelRecord(name, [uid], {uid: links}, None, "urdf", static, path)
-        self.version += 1
+        self._changed(static)
 
     def remove(self, name: str) -> None:
         rec = self._get(name)
@@ -115,7 +118,15 @@ class ModelRegistry:
         for uid in rec.uids:
             p.removeBody(uid, physicsClientId=self.client)
         del self.records[name]
+        self._changed(rec.static)
+
+    def _changed(self, static: bool) -> None:
         self.version += 1
+        self.static_version += static
+
+    def invalidate(self) -> None:
+        """Bodies may have moved behind the registry's back (a snapshot restore): drop every cache."""
+        self._changed(True)
 
     # ---- queries -------------------------------------------------------------------------------------
 
@@ -148,10 +159,10 @@ class ModelRegistry:
 
     def static_obstacle_aabbs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """obstacle_aabbs of the static bodies: the same arrays until a body is added, removed or moved."""
-        if self._aabb_cache is None or self._aabb_cache[0] != self.version:
+        if self._aabb_cache is None or self._aabb_cache[0] != self.static_version:
             uids = [u for r in self.records.values() if r.kind != "ground" and r.static for u in r.uids]
             boxes = [self._body_aabb(u) for u in uids]
-            self._aabb_cache = (self.version, np.array(uids, dtype=np.int64),
+            self._aabb_cache = (self.static_version, np.array(uids, dtype=np.int64),
                                 np.array([b[0] for b in boxes]).reshape(-1, 3),
                                 np.array([b[1] for b in boxes]).reshape(-1, 3))
         return self._aabb_cache[1:]
@@ -213,7 +224,7 @@ class ModelRegistry:
     def set_state(self, name: str, pose: Pose3D | None, linear: tuple[float, float, float] | None,
                   angular: tuple[float, float, float] | None) -> None:
         rec = self._get(name)
-        self.version += 1
+        self._changed(rec.static and pose is not None)
         if pose is not None:
             if rec.description is not None:
                 delta = pose.matrix() @ np.linalg.inv(self.model_pose(rec).matrix())

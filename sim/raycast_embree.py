@@ -15,7 +15,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pybullet as p
 
 from sim import raycast_robots as robots
 from sim import raycast_scene as scene
@@ -42,7 +41,7 @@ class EmbreeCaster:
         # form does not cover).
         self.closed_form = True
         self._static: Geometry | None = None
-        self._static_key: tuple[object, ...] | None = None
+        self._static_key: int | None = None  # the models' static_version the static scene was built at
         self._templates: dict[tuple[int, str], list[Shape]] = {}
         self._groups: dict[bytes, list[Shape]] = {}
         self._link_templates: dict[tuple[int, str], dict[int, list[Shape]]] = {}
@@ -66,22 +65,16 @@ class EmbreeCaster:
 
     def _static_scene(self) -> Geometry | None:
         models = self.world.models
-        statics = [r for r in models.records.values() if r.static]
-        uids = sorted(u for r in statics for u in r.uids)
-        # The static models as they are, not models.version: moving a movable model bumps the version but must
-        # not rebuild the static BVH. A moved static SDF model gets a new description; a URDF one is read back.
-        key = tuple((r.name, id(r), tuple(r.uids), id(r.description) if r.description is not None else
-                     tuple(tuple(p.getBasePositionAndOrientation(u, physicsClientId=models.client)) for u in r.uids))
-                    for r in statics)
-        if key != self._static_key:
+        # static_version, not version: moving a movable model must not rebuild the static BVH
+        if models.static_version != self._static_key:
             meshes = self._mesh_table()
             parts: list[Part] = []
-            for u in uids:
+            for u in sorted(u for r in models.records.values() if r.static for u in r.uids):
                 shapes = body_shapes(models.client, u, meshes)
                 if shapes:
                     parts.append((shapes, link_matrix(models.client, u, -1)[None], np.array([u])))
             self._static = scene.commit([scene.build(parts)])  # its BVH is built here, once per static layout
-            self._static_key = key
+            self._static_key = models.static_version
         return self._static
 
     def _template(self, uid: int, label: str) -> list[Shape]:

@@ -51,6 +51,7 @@ def restore_snapshot(world: World, snap: WorldSnapshot) -> None:
                          f"snapshot has robots {snap.robot_names}; now {world.table.names}. "
                          "Remove/spawn to match, or reset the world")
     p.restoreState(stateId=snap.bullet_state, physicsClientId=world.client)
+    world.models.invalidate()  # static bodies may be back where they were: caches of the static scene rebuild
     world.step_count = snap.step_count
     world._time = snap.step_count * world.dt
     world.rng.bit_generator.state = copy.deepcopy(snap.rng_state)

@@ -87,19 +87,8 @@ class OccupancyMapper:
 
     def _ensure(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Grow the array so world cells lo..hi (inclusive, (col, row)) are inside."""
-        h, w = self.log_odds.shape
-        cur_lo, cur_hi = self.origin_cell, self.origin_cell + np.array([w, h]) - 1
-        if h and w and np.all(lo >= cur_lo) and np.all(hi <= cur_hi):
-            return
-        m = math.ceil(_GROW_MARGIN / self.resolution)
-        new_lo = np.minimum(lo - m, cur_lo) if h and w else lo - m
-        new_hi = np.maximum(hi + m, cur_hi) if h and w else hi + m
-        grown = np.zeros((int(new_hi[1] - new_lo[1] + 1), int(new_hi[0] - new_lo[0] + 1)), dtype=np.float32)
-        if h and w:
-            off = cur_lo - new_lo
-            grown[off[1]:off[1] + h, off[0]:off[0] + w] = self.log_odds
-        self.log_odds = grown
-        self.origin_cell = new_lo
+        (self.log_odds,), self.origin_cell = grow_to_cover(
+            [self.log_odds], self.origin_cell, lo, hi, math.ceil(_GROW_MARGIN / self.resolution))
 
     def grid(self, crop: bool = True) -> OccupancyGrid:
         """Trinary ROS grid (-1/0/100); `crop` trims unknown borders."""
@@ -118,3 +107,23 @@ class OccupancyMapper:
             off = off + np.array([cols[0], rows[0]])
         origin = (float(off[0] * self.resolution), float(off[1] * self.resolution))
         return OccupancyGrid(np.ascontiguousarray(data), self.resolution, origin)
+
+
+def grow_to_cover(arrays: list[np.ndarray], origin_cell: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  margin: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """Same-shape 2-D grids (rows = y) whose [0, 0] is world cell `origin_cell` (col, row), grown with `margin`
+    cells to spare so world cells lo..hi (inclusive) are inside; unchanged (the same arrays) when they already
+    are. Returns (arrays, origin_cell)."""
+    h, w = arrays[0].shape
+    cur_lo, cur_hi = origin_cell, origin_cell + np.array([w, h]) - 1
+    if h and w and np.all(lo >= cur_lo) and np.all(hi <= cur_hi):
+        return arrays, origin_cell
+    new_lo = np.minimum(lo - margin, cur_lo) if h and w else lo - margin
+    new_hi = np.maximum(hi + margin, cur_hi) if h and w else hi + margin
+    size = (int(new_hi[1] - new_lo[1] + 1), int(new_hi[0] - new_lo[0] + 1))
+    grown = [np.zeros(size, dtype=a.dtype) for a in arrays]
+    if h and w:
+        off = cur_lo - new_lo
+        for g, a in zip(grown, arrays, strict=True):
+            g[off[1]:off[1] + h, off[0]:off[0] + w] = a
+    return grown, new_lo

@@ -19,6 +19,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from slam import se2
+from slam.mapping import grow_to_cover
 
 _GROW_MARGIN = 10.0  # m added around a scan when the grid must grow, so it rarely reallocates
 
@@ -96,18 +97,5 @@ class HitMissGrid:
 
     def _ensure(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Grow the arrays so world cells lo..hi (inclusive, (col, row)) are inside."""
-        h, w = self.hits.shape
-        cur_lo, cur_hi = self.origin_cell, self.origin_cell + np.array([w, h]) - 1
-        if h and w and np.all(lo >= cur_lo) and np.all(hi <= cur_hi):
-            return
-        m = math.ceil(_GROW_MARGIN / self.resolution)
-        new_lo = np.minimum(lo - m, cur_lo) if h and w else lo - m
-        new_hi = np.maximum(hi + m, cur_hi) if h and w else hi + m
-        size = (int(new_hi[1] - new_lo[1] + 1), int(new_hi[0] - new_lo[0] + 1))
-        grown_h, grown_m = np.zeros(size, dtype=np.int32), np.zeros(size, dtype=np.int32)
-        if h and w:
-            off = cur_lo - new_lo
-            grown_h[off[1]:off[1] + h, off[0]:off[0] + w] = self.hits
-            grown_m[off[1]:off[1] + h, off[0]:off[0] + w] = self.misses
-        self.hits, self.misses = grown_h, grown_m
-        self.origin_cell = new_lo
+        (self.hits, self.misses), self.origin_cell = grow_to_cover(
+            [self.hits, self.misses], self.origin_cell, lo, hi, math.ceil(_GROW_MARGIN / self.resolution))

@@ -215,3 +215,22 @@ def test_lidar_scans_see_moved_models_like_rayTestBatch(yard: World) -> None:
         assert np.median((np.abs(fl - fp) * np.linalg.norm(e - o, axis=1))[same]) < 1e-3
         hits += int(np.isin(ul[same], [w.models.records[m].uids[0] for m in MOVABLE]).sum())
     assert len(seen) >= 1 and hits > 20
+
+
+def test_moving_a_static_model_or_restoring_a_snapshot_rebuilds_the_static_scene(yard: World) -> None:
+    w = yard
+    w.set_raycaster("embree")
+    wall = w.models.records["wall"].uids[0]
+    o, e = np.array([[3.0, 0.0, 0.5]]), np.array([[7.0, 0.0, 0.5]])  # along +x into the wall at x = 5 − 0.15
+    assert w.cast_rays(o, e)[1][0] == wall
+    static, boxes = w.rays.embree._static_scene(), w.models.static_obstacle_aabbs()
+    snap = w.snapshot()
+    w.set_model_state("wall", pose=Pose3D(4.0, 0.0, 0.5))  # 1 m closer: the hit moves with it
+    f, u = w.cast_rays(o, e)
+    assert u[0] == wall and abs(f[0] * 4.0 - 0.85) < 1e-3
+    assert w.rays.embree._static_scene() is not static
+    assert w.models.static_obstacle_aabbs()[1] is not boxes[1]
+    w.restore(snap)  # the wall is back at x = 5 in PyBullet: the static caches must follow
+    f, u = w.cast_rays(o, e)
+    fp, up = w.cast_rays_pybullet(o, e)
+    assert u[0] == up[0] == wall and abs(f[0] - fp[0]) * 4.0 < 1e-3

@@ -17,6 +17,7 @@ import time
 from typing import Any
 
 import numpy as np
+from _wait_cycles import WaitClassifier
 from scipy.spatial import cKDTree
 
 from fleet import FleetConfig, FleetService
@@ -70,6 +71,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
 
         svc.call(start)
         tm.on_reached = reached
+        waits = WaitClassifier(tm)  # the waits split into cycles (deadlocks) and queues (_wait_cycles.py)
         r = tm.radius
         clearance = svc.static_clearance()
         pairs_now: set[tuple[int, int]] = set()
@@ -100,6 +102,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
             wall = set(np.flatnonzero(c < TOUCH_M).tolist())
             episodes["obstacle"] += len(wall - walls_now)
             walls_now = wall
+            waits.sample(svc.world.time)
 
         svc.step_listeners.append(check)
         load0 = os.getloadavg()[0]
@@ -123,6 +126,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 "deadlocks": d["deadlocks"], "resolved": d["resolved"], "unresolved": d["open_deadlocks"],
                 "longest_deadlock_s": d["longest_deadlock_s"],
                 "longest_open_s": d["longest_open_deadlock_s"], "fields_computed": d["fields_computed"],
+                **waits.summary(svc.world.time),
                 "world_contacts": episodes["world_contacts"],
                 "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
                 "rtf": svc.world.time / wall,

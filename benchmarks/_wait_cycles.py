@@ -10,6 +10,7 @@ otherwise it is a **queue** (every wait-for chain from it ended at a moving or i
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING, Any
 
 from fleet.traffic.waitfor import reaches_cycle, wait_for_edges
@@ -26,6 +27,7 @@ class WaitClassifier:
         self.open: dict[str, tuple[float, bool]] = {}  # robot → (wait opened at, seen in a cycle)
         self.closed: list[tuple[float, bool]] = []  # (duration, cycle)
         self._next = 0.0
+        self.wall_s = self.cpu_s = 0.0  # its own time, taken out of the benchmark's real-time factor
         tm.service.events.subscribe(self._event, ["deadlock", "deadlock_resolved"])
 
     def _event(self, ev: Any) -> None:
@@ -40,11 +42,14 @@ class WaitClassifier:
         if now < self._next or not self.open:
             return
         self._next = now + self.every_s
+        t0, c0 = time.perf_counter(), time.process_time()
         tm = self.tm
         cyclic = reaches_cycle(len(tm.names), wait_for_edges(tm))
         for name, (start, cyc) in list(self.open.items()):
             if not cyc and cyclic[tm._idx[name]]:
                 self.open[name] = (start, True)
+        self.wall_s += time.perf_counter() - t0
+        self.cpu_s += time.process_time() - c0
 
     def summary(self, now: float) -> dict[str, Any]:
         waits = self.closed + [(now - start, cyc) for start, cyc in self.open.values()]

@@ -1,11 +1,10 @@
-"""The traffic layer's wait-for graph (fleet/traffic/waitfor.py): cycles found in closed form, and the naive
-planner's head-on jam in a one-lane corridor is a cycle, while PIBT's run through it ends with none."""
+"""The traffic layer's wait-for graph (fleet/traffic/waitfor.py): cycles and queues told apart in closed form,
+and the naive planner's head-on jam in a one-lane corridor (tests/fleet/test_traffic_corridor.py) is a cycle."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from fleet.traffic.waitfor import reaches_cycle, wait_for_edges
@@ -36,9 +35,3 @@ def test_naive_corridor_jam_is_a_cycle(tmp: Path) -> None:
     assert on[stuck].all(), (edges, stuck)
     assert all(0 <= i < len(tm.names) and 0 <= k < len(tm.names) and i != k for i, k in edges)
 
-
-def test_pibt_corridor_ends_without_cycles(tmp: Path) -> None:
-    tm, _, _, _ = run(tmp, naive=False, seconds=400.0)
-    assert tm.active_count() == 0
-    assert not reaches_cycle(len(tm.names), wait_for_edges(tm)).any()
-    assert np.all(tm.a == tm.b)

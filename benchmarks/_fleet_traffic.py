@@ -7,7 +7,9 @@ overlap, robot-obstacle where a footprint circle reaches a static obstacle on th
 are counted per pair (a pair touching on consecutive steps is one episode). The kinematic world itself never
 lets bodies interpenetrate (it reverts a colliding robot's step), so the check counts a pair as touching when
 its footprint circles come within 1 mm (`TOUCH_M`), and the world's own contact flags are counted beside it.
-Also reported: wall time and CPU time of the loop, the load average before and after, the longest wait.
+Also reported: wall time and CPU time of the loop, the load average before and after, the longest wait, and the
+waits split into cycles and queues (_wait_cycles.py; its sampling time is taken out of the loop's times, so the
+real-time factor is the service's and the collision check's as before).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import time
 from typing import Any
 
 import numpy as np
+from _wait_cycles import WaitClassifier
 from scipy.spatial import cKDTree
 
 from fleet import FleetConfig, FleetService
@@ -70,6 +73,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
 
         svc.call(start)
         tm.on_reached = reached
+        waits = WaitClassifier(tm)  # the waits split into cycles (deadlocks) and queues (_wait_cycles.py)
         r = tm.radius
         clearance = svc.static_clearance()
         pairs_now: set[tuple[int, int]] = set()
@@ -100,6 +104,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
             wall = set(np.flatnonzero(c < TOUCH_M).tolist())
             episodes["obstacle"] += len(wall - walls_now)
             walls_now = wall
+            waits.sample(svc.world.time)
 
         svc.step_listeners.append(check)
         load0 = os.getloadavg()[0]
@@ -107,7 +112,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         end = minutes * 60.0
         while svc.world.time < end - 1e-9:
             svc.advance(min(5.0, end - svc.world.time))
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        wall, cpu = time.perf_counter() - t0 - waits.wall_s, time.process_time() - c0 - waits.cpu_s
         d = tm.describe()
         in_progress = int(np.count_nonzero(tm.pending))
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
@@ -123,6 +128,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 "deadlocks": d["deadlocks"], "resolved": d["resolved"], "unresolved": d["open_deadlocks"],
                 "longest_deadlock_s": d["longest_deadlock_s"],
                 "longest_open_s": d["longest_open_deadlock_s"], "fields_computed": d["fields_computed"],
+                **waits.summary(svc.world.time), "classify_cpu_s": waits.cpu_s,
                 "world_contacts": episodes["world_contacts"],
                 "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
                 "rtf": svc.world.time / wall,

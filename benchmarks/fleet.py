@@ -202,6 +202,7 @@ def main() -> None:
                 tcols = ("robots", "avoidance", "done", "done_per_min", "in_progress", "robot_collisions",
                          "obstacle_hits", "world_contacts", "closest_robot_gap_m", "closest_obstacle_gap_m",
                          "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "longest_open_s",
+                         "cycle_waits", "longest_cycle_wait_s", "queue_waits", "longest_queue_wait_s", "classify_cpu_s",
                          "fields_computed",
                          "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))

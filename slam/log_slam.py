@@ -85,6 +85,7 @@ class LogSlam:
         self._following: list[LidarScan] = []
         self._local_pts = np.zeros((0, 2))  # the match grid's points (world frame), for look-ahead maps
         self._local_idx = np.zeros(0, dtype=np.int64)  # … and its scans
+        self._surface: tuple[np.ndarray, np.ndarray] | None = None  # the wide match's translation score surface
         self._wide = False
         self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
         self._mixtures: dict[int, object] = {}  # node → its incoming max-mixture edge (kept alive here)
@@ -175,6 +176,7 @@ class LogSlam:
         if res is None or (wide and at_window_edge(res.pose, guess, fe.wide_window_xy, fe.wide_window_yaw,
                                                    grid.resolution, math.radians(2))):
             return None, self._odom_cov
+        self._surface = None
         if wide and self._following:
             mp = self.config.motion_prior
             ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
@@ -202,7 +204,7 @@ class LogSlam:
         info = fit.information + 1e-9 * np.eye(3)
         if wide:  # a second peak nearly as good (a corridor): the edge is weak along it
             wp, mc = subsample(pts, fe.wide_points), self.config.match_covariance
-            surface = translation_surface(grid, wp, pose, fe.wide_window_xy, mc.step)
+            surface = self._surface or translation_surface(grid, wp, pose, fe.wide_window_xy, mc.step)
             self.surfaces[len(self.poses)] = Surface.of(*surface, pose)  # for slam.edge_switch
             amb = ambiguous_covariance(grid, wp, pose, fe.wide_window_xy, fe.wide_window_yaw, mc, surface)
             if amb is not None:
@@ -224,6 +226,7 @@ class LogSlam:
             return res
         wp = subsample(pts, fe.wide_points)
         surface = translation_surface(grid, wp, res.pose, fe.wide_window_xy, self.config.match_covariance.step)
+        self._surface = surface  # the edge's covariance reuses it (ICP moves the pose less than a cell)
         alts = alternatives(grid, wp, res, guess, surface, la, (mp.weight_xy, mp.weight_yaw))
         if not alts:
             return res
@@ -243,6 +246,8 @@ class LogSlam:
         best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space)
         self.stats.lookahead += 1
         self.stats.lookahead_switched += best is not res
+        if best is not res:
+            self._surface = None
         return best
 
     def _switchable(self, i: int, rel: se2.PoseTuple, cov: np.ndarray) -> gtsam.CustomFactor | None:

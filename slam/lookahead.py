@@ -38,6 +38,9 @@ class LookaheadConfig(StrictModel):
     margin: float = Field(0.05, ge=0, le=1, description="a distinct peak scoring within this of the best wide "
                           "match is a hypothesis (mean hit likelihood on the surface lattice)")
     min_separation: float = Field(0.5, gt=0, description="peaks closer than this to a kept one are the same, m")
+    candidate_margin: float = Field(0.12, ge=0, le=1, description="surface peaks within this of the best are "
+                                    "refined (the 0.15 m lattice samples a peak up to ~0.1 below its top)")
+    max_candidates: int = Field(4, ge=1, description="… at most this many")
     max_hypotheses: int = Field(3, ge=2, description="the best match and at most this many − 1 alternatives")
     depth: int = Field(3, ge=1, description="scans carried ahead per hypothesis")
     prediction_margin: float = Field(0.15, ge=0, le=1, description="the motion prediction (refined) is a "
@@ -73,7 +76,7 @@ def alternatives(grid: MatchGrid, points: np.ndarray, best: CsmResult, guess: se
     each scored with the same motion-prior penalty around `guess` as the wide search."""
     out: list[CsmResult] = []
     top = best.score
-    peaks = surface_peaks(*surface, config.margin, config.min_separation, config.max_hypotheses - 1)
+    peaks = surface_peaks(*surface, config.candidate_margin, config.min_separation, config.max_candidates)
     starts = [(best.pose[0] + float(d[0]), best.pose[1] + float(d[1]), best.pose[2]) for d in peaks]
     margins = [config.margin] * len(starts)
     if math.hypot(guess[0] - best.pose[0], guess[1] - best.pose[1]) >= config.min_separation:
@@ -87,7 +90,7 @@ def alternatives(grid: MatchGrid, points: np.ndarray, best: CsmResult, guess: se
         if score >= top - margin and all(math.hypot(r.pose[0] - h.pose[0], r.pose[1] - h.pose[1])
                                          >= config.min_separation for h in [best, *out]):
             out.append(CsmResult(r.pose, score, r.nodes))
-    return out
+    return sorted(out, key=lambda h: -h.score)[:config.max_hypotheses - 1]
 
 
 def _penalty(pose: se2.PoseTuple, guess: se2.PoseTuple, prior: tuple[float, float]) -> float:

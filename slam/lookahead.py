@@ -42,7 +42,8 @@ class LookaheadConfig(StrictModel):
                                     "refined (the 0.15 m lattice samples a peak up to ~0.1 below its top)")
     max_candidates: int = Field(4, ge=1, description="… at most this many")
     max_hypotheses: int = Field(3, ge=2, description="the best match and at most this many − 1 alternatives")
-    depth: int = Field(3, ge=1, description="scans carried ahead per hypothesis")
+    depth: int = Field(2, ge=1, description="scans carried ahead per hypothesis (3 measured: the same decisions "
+                       "on orebro under 11 nearby settings, at 1.5× the cost)")
     prediction_margin: float = Field(0.15, ge=0, le=1, description="the motion prediction (refined) is a "
                                      "hypothesis too when it scores within this of the best, distinct peak or "
                                      "not: a scan looking into unmapped space scores low at its true pose")

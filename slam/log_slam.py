@@ -237,7 +237,7 @@ class LogSlam:
             return MatchGrid(thin(np.vstack([self._local_pts, *extra]), fe.resolution / 2), fe.resolution,
                              fe.sigma, margin=(1.5 + 2 * fe.wide_window_xy if fill else 1.0))
 
-        ahead = [(subsample(f, fe.wide_points), f) for f in following[:la.depth]]
+        ahead = [(subsample(f, la.points), f) for f in following[:la.depth]]
         others = [(self.poses[k], self.points[k]) for k in self._local_idx]
 
         def free_space(pose: se2.PoseTuple) -> float:

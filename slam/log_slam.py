@@ -3,8 +3,9 @@
 Front end: the scan is matched against a local map (the recent scans at their current poses) by a
 correlative branch-and-bound search in a window around the odometry guess (`slam.csm`), then refined by
 point-to-line ICP. Odometry only seeds the window and adds a small score penalty (its trust); when it is
-missing, or the match in the normal window is poor, a wide window is searched. If no match is found the
-edge falls back to odometry with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
+missing, or the match in the normal window is poor, a wide window is searched; near-tied peaks of a wide
+match are decided by the next scans (`slam.lookahead`). If no match is found the edge falls back to odometry
+with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
 (`slam.pose_graph.PoseGraph`).
 """
 

@@ -10,6 +10,7 @@ from pydantic import Field
 from sim.config import StrictModel
 from slam.edge_switch import EdgeSwitchConfig
 from slam.hypotheses import HypothesesConfig
+from slam.lookahead import LookaheadConfig
 from slam.loop_groups import LoopGroupConfig
 from slam.match_covariance import MatchCovarianceConfig
 from slam.max_mixture import SwitchableConfig
@@ -117,6 +118,7 @@ class LogSlamConfig(StrictModel):
     motion_prior: MotionPriorConfig = MotionPriorConfig()
     match_covariance: MatchCovarianceConfig = MatchCovarianceConfig()
     hypotheses: HypothesesConfig = HypothesesConfig()
+    lookahead: LookaheadConfig = LookaheadConfig()
     switchable: SwitchableConfig = SwitchableConfig()
     loops: LoopConfig = LoopConfig()
     mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes

@@ -65,7 +65,7 @@ def run_slam(log: LoadedLog, config: LogSlamConfig, progress: Progress | None = 
     t0 = time.perf_counter()
     for k, rec in enumerate(log.records):
         slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]),
-                      lookahead=log.records[k + 1].scan if k + 1 < n else None)
+                      lookahead=[r.scan for r in log.records[k + 1:k + 1 + config.lookahead.depth]])
         if progress is not None and (k % 25 == 0 or k == n - 1):
             progress(k + 1, n, 1000 * (time.perf_counter() - t0) / (k + 1))
     slam.finish()

@@ -3,8 +3,9 @@
 Front end: the scan is matched against a local map (the recent scans at their current poses) by a
 correlative branch-and-bound search in a window around the odometry guess (`slam.csm`), then refined by
 point-to-line ICP. Odometry only seeds the window and adds a small score penalty (its trust); when it is
-missing, or the match in the normal window is poor, a wide window is searched. If no match is found the
-edge falls back to odometry with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
+missing, or the match in the normal window is poor, a wide window is searched; near-tied peaks of a wide
+match are decided by the next scans (`slam.lookahead`). If no match is found the edge falls back to odometry
+with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
 (`slam.pose_graph.PoseGraph`).
 """
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import gtsam
@@ -21,18 +23,20 @@ from planning.grid import OccupancyGrid
 from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
-from slam.csm import MatchGrid, first_per_cell, search
+from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, decide
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
+from slam.lookahead import alternatives, choose
 from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
 from slam.motion_prior import at_window_edge, predicted_step
 from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
+from slam.see_through import inconsistency
 from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
 
@@ -54,6 +58,8 @@ class FrontEndStats:
     wide: int = 0  # edges that needed the wide window
     odometry_only: int = 0  # no match: the odometry (or no motion) with a loose σ
     ambiguous: int = 0  # wide matches whose score surface has a second peak (edge σ from the surface)
+    lookahead: int = 0  # wide matches with near-tied distinct peaks, decided by the next scans
+    lookahead_switched: int = 0  # … where an alternative peak won
     local_map_builds: int = 0
     times: list[float] = field(default_factory=list)  # s of wall time per scan
     cpu_times: list[float] = field(default_factory=list)  # s of process CPU time per scan (all threads)
@@ -77,7 +83,10 @@ class LogSlam:
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
         self._local_filled = False
         self._evidence = HitMissGrid(cfg.frontend.resolution)
-        self._next_scan: LidarScan | None = None
+        self._following: list[LidarScan] = []
+        self._local_pts = np.zeros((0, 2))  # the match grid's points (world frame), for look-ahead maps
+        self._local_idx = np.zeros(0, dtype=np.int64)  # … and its scans
+        self._surface: tuple[np.ndarray, np.ndarray] | None = None  # the wide match's translation score surface
         self._wide = False
         self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
         self._mixtures: dict[int, object] = {}  # node → its incoming max-mixture edge (kept alive here)
@@ -91,11 +100,13 @@ class LogSlam:
     # ---- per scan ------------------------------------------------------------------------------------
 
     def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True,
-                 lookahead: LidarScan | None = None) -> Pose2D:
-        """`lookahead`: the next scan, if known (a log), to settle a weak wide match (`slam.hypotheses`)."""
+                 lookahead: LidarScan | Sequence[LidarScan] | None = None) -> Pose2D:
+        """`lookahead`: the next scan(s), if known (a log), to settle a weak or near-tied wide match
+        (`slam.hypotheses`, `slam.lookahead`)."""
         t0, c0 = time.perf_counter(), time.process_time()
         cfg = self.config
-        self._next_scan = lookahead
+        self._following = [] if lookahead is None else [lookahead] if isinstance(lookahead, LidarScan) \
+            else list(lookahead)
         pts, no_ret = self._preprocess(scan)
         o = odom.as_tuple() if odom is not None else None
         i = len(self.poses)
@@ -166,14 +177,17 @@ class LogSlam:
         if res is None or (wide and at_window_edge(res.pose, guess, fe.wide_window_xy, fe.wide_window_yaw,
                                                    grid.resolution, math.radians(2))):
             return None, self._odom_cov
-        if wide and self._next_scan is not None:
+        self._surface = None
+        if wide and self._following:
             mp = self.config.motion_prior
             ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
-            nxt = subsample(self._preprocess(self._next_scan)[0], fe.wide_points)
+            following = [self._preprocess(s)[0] for s in self._following]
+            nxt = subsample(following[0], fe.wide_points)
             res = decide(grid, subsample(pts, fe.wide_points), res, self.poses[-1], guess, nxt, ws,
                          self.config.hypotheses)
             if res is None:
                 return None, self._odom_cov
+            res = self._look_ahead(grid, pts, res, guess, following, ws, fill=not has_odom)
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
                   inlier_distance=fe.icp_max_correspondence, range_sigma=fe.icp_range_sigma)
         pose = fit.pose
@@ -191,7 +205,7 @@ class LogSlam:
         info = fit.information + 1e-9 * np.eye(3)
         if wide:  # a second peak nearly as good (a corridor): the edge is weak along it
             wp, mc = subsample(pts, fe.wide_points), self.config.match_covariance
-            surface = translation_surface(grid, wp, pose, fe.wide_window_xy, mc.step)
+            surface = self._surface or translation_surface(grid, wp, pose, fe.wide_window_xy, mc.step)
             self.surfaces[len(self.poses)] = Surface.of(*surface, pose)  # for slam.edge_switch
             amb = ambiguous_covariance(grid, wp, pose, fe.wide_window_xy, fe.wide_window_yaw, mc, surface)
             if amb is not None:
@@ -204,6 +218,38 @@ class LogSlam:
             pose = se2_compose(guess, (float(fused[0]), float(fused[1]), float(fused[2])))
             info = info + odo_info
         return pose, np.linalg.inv(info) + self._floor(se2_between(self.poses[-1], pose))
+
+    def _look_ahead(self, grid: MatchGrid, pts: np.ndarray, res: CsmResult, guess: se2.PoseTuple,
+                    following: list[np.ndarray], ws: WideSearch, fill: bool) -> CsmResult:
+        """`res`, or a near-tied distinct peak of its score surface that the next scans match better from."""
+        la, fe, mp = self.config.lookahead, self.config.frontend, self.config.motion_prior
+        if not la.enabled:
+            return res
+        wp = subsample(pts, fe.wide_points)
+        surface = translation_surface(grid, wp, res.pose, fe.wide_window_xy, self.config.match_covariance.step)
+        self._surface = surface  # the edge's covariance reuses it (ICP moves the pose less than a cell)
+        alts = alternatives(grid, wp, res, guess, surface, la, (mp.weight_xy, mp.weight_yaw))
+        if not alts:
+            return res
+
+        def grid_of(chain: list[tuple[se2.PoseTuple, np.ndarray]]) -> MatchGrid:
+            extra = [se2.transform_points(p, fill_surfaces(q, fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)
+                                          if fill else q) for p, q in chain]
+            return MatchGrid(thin(np.vstack([self._local_pts, *extra]), fe.resolution / 2), fe.resolution,
+                             fe.sigma, margin=(1.5 + 2 * fe.wide_window_xy if fill else 1.0))
+
+        ahead = [(subsample(f, la.points), f) for f in following[:la.depth]]
+        others = [(self.poses[k], self.points[k]) for k in self._local_idx]
+
+        def free_space(pose: se2.PoseTuple) -> float:
+            return la.free_space_weight * inconsistency(pose, pts, others, la.free_space_margin)
+
+        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space)
+        self.stats.lookahead += 1
+        self.stats.lookahead_switched += best is not res
+        if best is not res:
+            self._surface = None
+        return best
 
     def _switchable(self, i: int, rel: se2.PoseTuple, cov: np.ndarray) -> gtsam.CustomFactor | None:
         """A wide match's edge as a max-mixture with a broad null component (`slam.max_mixture`): a wrong
@@ -266,6 +312,7 @@ class LogSlam:
             grid_pts = thin(np.vstack([pts] + [se2.transform_points(self.poses[k], fill_surfaces(
                 self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)) for k in idx]), fe.resolution / 2)
         margin = 1.5 + 2 * fe.wide_window_xy if fill else 1.0  # wide: a zero margin the window fits in (csm)
+        self._local_pts, self._local_idx = grid_pts, idx
         self._local = (MatchGrid(grid_pts, fe.resolution, fe.sigma, margin=margin), IcpTarget.from_points(pts))
         self._local_at, self._local_pose, self._local_filled = n - 1, last, fill
         self.stats.local_map_builds += 1

@@ -25,7 +25,9 @@ from slam.edge_switch import rank_edges
 from slam.icp import IcpTarget, icp
 from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
+from slam.loop_coverage import Coverage
 from slam.loop_groups import Pending, largest_group
+from slam.match_covariance import translation_surface
 from slam.pose_graph import Kernel, gaussian
 
 if TYPE_CHECKING:
@@ -38,6 +40,7 @@ class Submap:
     grid: MatchGrid  # in the anchor's frame
     target: IcpTarget
     descriptor: np.ndarray
+    coverage: Coverage | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +117,7 @@ class LoopFinder:
         pts = np.vstack([se2.transform_points(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx])
         pts = _thin(pts, c.resolution / 2)
         return Submap(a, MatchGrid(pts, c.resolution, c.sigma, margin=c.radius_max + 1.0),
-                      IcpTarget.from_points(pts), self.descriptor(a))
+                      IcpTarget.from_points(pts), self.descriptor(a), Coverage(pts, 0.25) if c.coverage else None)
 
     def candidates(self, i: int) -> list[tuple[int, float]]:
         """(anchor, search radius) of frozen submaps near scan i in the estimate, most similar first."""
@@ -130,6 +133,12 @@ class LoopFinder:
             radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
             p = s.poses[a]
             d = math.hypot(p[0] - here[0], p[1] - here[1])
+            if sm.coverage is not None:
+                if d <= c.coverage_reach:
+                    share = float(sm.coverage.covered(self._probe(i), se2_between(p, here), radius).mean())
+                    if share >= c.coverage_min_share:
+                        found.append((-sep, a, radius))  # the longest loop first: it bounds the most drift
+                continue
             if d > radius + c.submap_distance:
                 continue
             desc = float(descriptor_distance(sm.descriptor, self.descriptor(i))[0])
@@ -139,21 +148,41 @@ class LoopFinder:
         found.sort()
         return [(a, r) for _, a, r in found[: c.max_candidates]]
 
+    def _probe(self, i: int) -> np.ndarray:
+        pts = self.slam.points[i]
+        return pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
+
     def verify(self, i: int, a: int, radius: float) -> Closure:
         c, s = self.config, self.slam
         sm = self.submaps[a]
         guess = se2_between(s.poses[a], s.poses[i])
         pts = s.points[i]
+        if sm.coverage is not None:  # verify on the returns the submap can explain
+            pts = pts[sm.coverage.covered(pts, guess, radius)]
+            if len(pts) < c.min_points:
+                return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "too_few_covered"))
         sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
-        res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window, min_score=c.min_score)
+        weak = c.weak_min_score if c.weak_min_score is not None and self.config.groups.enabled else None
+        res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window,
+                     min_score=c.min_score if weak is None else min(weak, c.min_score))
         if res is None:
             return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "no_match_above_min_score"))
         fit = icp(pts, sm.target, res.pose, max_correspondence=2 * c.resolution, inlier_distance=0.1,
                   range_sigma=0.05)
-        if not (fit.converged and fit.inlier_ratio >= c.min_inliers and fit.rmse <= c.max_rmse):
+        strong = res.score >= c.min_score and fit.inlier_ratio >= c.min_inliers
+        if not (fit.converged and fit.rmse <= c.max_rmse
+                and (strong or (weak is not None and fit.inlier_ratio >= c.weak_min_inliers))):
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "icp_fitness"))
         cov = np.linalg.inv(fit.information + 1e-9 * np.eye(3)) + self._floor
+        if not strong:  # too little overlap to trust alone: only a group of agreeing closures may add it
+            rival = _rival(sm.grid, sub, fit.pose, radius)
+            if rival > c.weak_max_rival * res.score:
+                return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
+                                            "weak_not_distinct"))
+            self._try_group(Pending(a, i, fit.pose, cov, res.score, fit.inlier_ratio, fit.rmse))
+            return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
+                                        "weak_pending"))
         return self.add(a, i, fit.pose, cov, res.score, fit.inlier_ratio, fit.rmse)
 
     def add(self, target: int, source: int, relative: se2.PoseTuple, covariance: np.ndarray, score: float = 1.0,
@@ -308,6 +337,13 @@ class LoopFinder:
         self.history.append(closure)
         self.reasons[closure.reason] += 1
         return closure
+
+
+def _rival(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, radius: float) -> float:
+    """Best score of `points` at `pose` shifted by 0.5 … `radius` m (0.15 m lattice, same rotation)."""
+    offsets, scores = translation_surface(grid, points, pose, radius, 0.15)
+    far = np.hypot(offsets[:, 0], offsets[:, 1]) > 0.5
+    return float(scores[far].max()) if far.any() else 0.0
 
 
 def _thin(points: np.ndarray, spacing: float) -> np.ndarray:

@@ -67,6 +67,7 @@ class LoopFinder:
         self.slam = slam
         self.anchors: list[int] = []
         self.submaps: dict[int, Submap] = {}
+        self.wide: dict[int, Submap] = {}  # longer submaps for coverage candidates (`slam.loop_coverage`)
         self.history: list[Closure] = []
         self.reasons: Counter[str] = Counter()
         self._last_try = -math.inf
@@ -97,19 +98,21 @@ class LoopFinder:
             self.anchors.append(i)
         for a in self.anchors:  # freeze submaps the robot has driven past
             if a not in self.submaps and path[i] - path[a] > c.submap_distance:
-                self.submaps[a] = self._build(a)
+                self.submaps[a] = self._build(a, c.submap_distance, coverage=False)
+            if c.coverage and a not in self.wide and path[i] - path[a] > c.coverage_submap_distance:
+                self.wide[a] = self._build(a, c.coverage_submap_distance, coverage=True)
         if path[i] - self._last_try < c.every_distance or len(s.points[i]) < c.min_points:
             return
         self._last_try = path[i]
-        for a, radius in self.candidates(i):
-            closure = self.verify(i, a, radius)
+        for sm, radius in self.candidates(i):
+            closure = self.verify(i, sm, radius)
             if closure.accepted:
                 break
 
-    def _build(self, a: int) -> Submap:
+    def _build(self, a: int, distance: float, coverage: bool) -> Submap:
         s, c = self.slam, self.config
         path = np.array(s.path)
-        idx = np.nonzero(np.abs(path - path[a]) <= c.submap_distance)[0]
+        idx = np.nonzero(np.abs(path - path[a]) <= distance)[0]
         idx = idx[idx <= len(s.poses) - 1]
         if len(idx) > 40:
             idx = idx[np.linspace(0, len(idx) - 1, 40).astype(int)]
@@ -117,10 +120,11 @@ class LoopFinder:
         pts = np.vstack([se2.transform_points(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx])
         pts = _thin(pts, c.resolution / 2)
         return Submap(a, MatchGrid(pts, c.resolution, c.sigma, margin=c.radius_max + 1.0),
-                      IcpTarget.from_points(pts), self.descriptor(a), Coverage(pts, 0.25) if c.coverage else None)
+                      IcpTarget.from_points(pts), self.descriptor(a), Coverage(pts, 0.25) if coverage else None)
 
-    def candidates(self, i: int) -> list[tuple[int, float]]:
-        """(anchor, search radius) of frozen submaps near scan i in the estimate, most similar first."""
+    def candidates(self, i: int) -> list[tuple[Submap, float]]:
+        """(submap, search radius) of frozen submaps near scan i in the estimate, most similar first; if there
+        are none and `coverage` is on, the long submaps that cover scan i (`slam.loop_coverage`)."""
         c, s = self.config, self.slam
         path = s.path
         here = s.poses[i]
@@ -133,12 +137,6 @@ class LoopFinder:
             radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
             p = s.poses[a]
             d = math.hypot(p[0] - here[0], p[1] - here[1])
-            if sm.coverage is not None:
-                if d <= c.coverage_reach:
-                    share = float(sm.coverage.covered(self._probe(i), se2_between(p, here), radius).mean())
-                    if share >= c.coverage_min_share:
-                        found.append((-sep, a, radius))  # the longest loop first: it bounds the most drift
-                continue
             if d > radius + c.submap_distance:
                 continue
             desc = float(descriptor_distance(sm.descriptor, self.descriptor(i))[0])
@@ -146,24 +144,45 @@ class LoopFinder:
                 continue
             found.append((desc + 0.02 * d, a, radius))
         found.sort()
-        return [(a, r) for _, a, r in found[: c.max_candidates]]
+        if not found and c.coverage:
+            return self._covering(i)
+        return [(self.submaps[a], r) for _, a, r in found[: c.max_candidates]]
+
+    def _covering(self, i: int) -> list[tuple[Submap, float]]:
+        c, s = self.config, self.slam
+        path, here, probe = s.path, s.poses[i], self._probe(i)
+        found: list[tuple[float, int, float]] = []
+        for a, sm in self.wide.items():
+            sep = path[i] - path[a]
+            p = s.poses[a]
+            if sep < c.min_path_separation + c.coverage_submap_distance or sm.coverage is None or \
+                    math.hypot(p[0] - here[0], p[1] - here[1]) > c.coverage_reach:
+                continue
+            drift = min(sep, path[i] - self._last_closure_path + c.coverage_submap_distance)
+            radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
+            if float(sm.coverage.covered(probe, se2_between(p, here), radius).mean()) >= c.coverage_min_share:
+                found.append((-sep, a, radius))  # the longest loop first: it bounds the most drift
+        found.sort()
+        return [(self.wide[a], r) for _, a, r in found[: c.max_candidates]]
 
     def _probe(self, i: int) -> np.ndarray:
         pts = self.slam.points[i]
         return pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
 
-    def verify(self, i: int, a: int, radius: float) -> Closure:
+    def verify(self, i: int, sm: Submap, radius: float) -> Closure:
         c, s = self.config, self.slam
-        sm = self.submaps[a]
+        a = sm.anchor
         guess = se2_between(s.poses[a], s.poses[i])
         pts = s.points[i]
         if sm.coverage is not None:  # verify on the returns the submap can explain
             pts = pts[sm.coverage.covered(pts, guess, radius)]
             if len(pts) < c.min_points:
                 return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "too_few_covered"))
-        sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
-        weak = c.weak_min_score if c.weak_min_score is not None and self.config.groups.enabled else None
+        n, angle_range = (120, 10.0) if sm.coverage is None else (c.coverage_points, c.coverage_angle_range)
+        sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), n)).astype(int)]
+        weak = c.weak_min_score if sm.coverage is not None and self.config.groups.enabled else None
         res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window,
+                     max_range_for_step=angle_range,
                      min_score=c.min_score if weak is None else min(weak, c.min_score))
         if res is None:
             return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "no_match_above_min_score"))
@@ -175,11 +194,11 @@ class LoopFinder:
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "icp_fitness"))
         cov = np.linalg.inv(fit.information + 1e-9 * np.eye(3)) + self._floor
+        if sm.coverage is not None and _rival(sm.grid, sub, fit.pose, radius) > c.weak_max_rival * res.score:
+            # a corridor's walls fit anywhere along it: the match must stand out (coverage has no descriptor)
+            return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
+                                        "not_distinct"))
         if not strong:  # too little overlap to trust alone: only a group of agreeing closures may add it
-            rival = _rival(sm.grid, sub, fit.pose, radius)
-            if rival > c.weak_max_rival * res.score:
-                return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
-                                            "weak_not_distinct"))
             self._try_group(Pending(a, i, fit.pose, cov, res.score, fit.inlier_ratio, fit.rmse))
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "weak_pending"))

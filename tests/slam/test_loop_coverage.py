@@ -47,7 +47,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[LogSlam, n
     carmen_synth.write_log(path, truth, odom, rng, segments=_hall(), max_range=20.0)
     out = {}
     for name, loops in (("default", {"coverage": False, "weak_min_score": None, "submap_distance": 4.0}),
-                        ("coverage", {"coverage": True, "submap_distance": 10.0, "weak_min_score": 0.35})):
+                        ("coverage", {"coverage": True})):
         cfg = LogSlamConfig(frontend=FRONT_END_OFF, loops=loops)
         log = load_log(path, cfg)
         assert log.reference is not None

@@ -84,7 +84,7 @@ class LoopConfig(StrictModel):
     max_candidates: int = Field(2, ge=1, description="submaps verified per scan")
     descriptor_rings: int = Field(24, ge=2)
     descriptor_max_distance: float = Field(0.15, gt=0, description="ring-CDF distance gate (0 … 1)")
-    coverage: bool = Field(False, description="when no submap passes the candidate gates above, try the long "
+    coverage: bool = Field(True, description="when no submap passes the candidate gates above, try the long "
                            "submaps (`coverage_submap_distance`) whose returns lie within the search radius of "
                            "enough of the scan's returns in the estimate, whatever the heading, longest loop "
                            "first (`slam.loop_coverage`); verified on those returns, must be distinct, and may "
@@ -92,6 +92,7 @@ class LoopConfig(StrictModel):
     coverage_min_share: float = Field(0.4, gt=0, le=1, description="… share of the scan's returns covered")
     coverage_reach: float = Field(20.0, gt=0, description="… anchors farther than this from the scan are not "
                                   "looked at, m")
+    coverage_candidates: int = Field(1, ge=1, description="… submaps verified per scan")
     coverage_points: int = Field(80, ge=10, description="… scan points scored by their branch and bound")
     coverage_angle_range: float = Field(5.0, gt=0, description="… whose rotation step moves a point this far "
                                         "away by one cell (ICP refines below it), m")

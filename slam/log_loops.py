@@ -34,13 +34,29 @@ if TYPE_CHECKING:
     from slam.log_slam import LogSlam
 
 
-@dataclass(frozen=True, slots=True)
 class Submap:
-    anchor: int
-    grid: MatchGrid  # in the anchor's frame
-    target: IcpTarget
-    descriptor: np.ndarray
-    coverage: Coverage | None = None
+    """Scans around an anchor, in the anchor's frame; the match grid and ICP target are built when first
+    verified against (many submaps never are)."""
+
+    def __init__(self, anchor: int, points: np.ndarray, descriptor: np.ndarray, resolution: float, sigma: float,
+                 margin: float, coverage: Coverage | None = None) -> None:
+        self.anchor, self.points, self.descriptor, self.coverage = anchor, points, descriptor, coverage
+        self._grid_args = (resolution, sigma, margin)
+        self._built: tuple[MatchGrid, IcpTarget] | None = None
+
+    def _build(self) -> tuple[MatchGrid, IcpTarget]:
+        if self._built is None:
+            res, sigma, margin = self._grid_args
+            self._built = (MatchGrid(self.points, res, sigma, margin=margin), IcpTarget.from_points(self.points))
+        return self._built
+
+    @property
+    def grid(self) -> MatchGrid:
+        return self._build()[0]
+
+    @property
+    def target(self) -> IcpTarget:
+        return self._build()[1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,8 +135,8 @@ class LoopFinder:
         anchor = s.poses[a]
         pts = np.vstack([se2.transform_points(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx])
         pts = _thin(pts, c.resolution / 2)
-        return Submap(a, MatchGrid(pts, c.resolution, c.sigma, margin=c.radius_max + 1.0),
-                      IcpTarget.from_points(pts), self.descriptor(a), Coverage(pts, 0.25) if coverage else None)
+        return Submap(a, pts, self.descriptor(a), c.resolution, c.sigma, c.radius_max + 1.0,
+                      Coverage(pts, 0.25) if coverage else None)
 
     def candidates(self, i: int) -> list[tuple[Submap, float]]:
         """(submap, search radius) of frozen submaps near scan i in the estimate, most similar first; if there
@@ -163,7 +179,7 @@ class LoopFinder:
             if float(sm.coverage.covered(probe, se2_between(p, here), radius).mean()) >= c.coverage_min_share:
                 found.append((-sep, a, radius))  # the longest loop first: it bounds the most drift
         found.sort()
-        return [(self.wide[a], r) for _, a, r in found[: c.max_candidates]]
+        return [(self.wide[a], r) for _, a, r in found[: c.coverage_candidates]]
 
     def _probe(self, i: int) -> np.ndarray:
         pts = self.slam.points[i]

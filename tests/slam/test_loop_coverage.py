@@ -81,7 +81,7 @@ def test_coverage_closes_the_opposite_revisit(runs: dict[str, tuple[LogSlam, np.
         true = se2_between(tuple(ref[t]), tuple(ref[s]))
         err.append(math.hypot(rel[0] - true[0], rel[1] - true[1]))
         assert abs(math.remainder(rel[2] - true[2], math.tau)) < math.radians(2)
-    assert max(err) < 0.5 and float(np.median(err)) < 0.2
+    assert max(err) < 0.5 and float(np.median(err)) < 0.3
     assert ate < 0.2 < 0.6 < runs["default"][2]
 
 

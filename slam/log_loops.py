@@ -35,19 +35,22 @@ if TYPE_CHECKING:
 
 
 class Submap:
-    """Scans around an anchor, in the anchor's frame; the match grid and ICP target are built when first
+    """Scans around an anchor, in the anchor's frame. The points, match grid and ICP target are built when first
     verified against (many submaps never are)."""
 
-    def __init__(self, anchor: int, points: np.ndarray, descriptor: np.ndarray, resolution: float, sigma: float,
-                 margin: float, coverage: Coverage | None = None) -> None:
-        self.anchor, self.points, self.descriptor, self.coverage = anchor, points, descriptor, coverage
+    def __init__(self, anchor: int, scans: list[tuple[se2.PoseTuple, np.ndarray]], descriptor: np.ndarray,
+                 resolution: float, sigma: float, margin: float, coverage: bool = False) -> None:
+        self.anchor, self.descriptor, self._scans = anchor, descriptor, scans
         self._grid_args = (resolution, sigma, margin)
         self._built: tuple[MatchGrid, IcpTarget] | None = None
+        self.coverage = Coverage(np.vstack([se2.transform_points(p, pts[::4]) for p, pts in scans]), 0.25) \
+            if coverage else None
 
     def _build(self) -> tuple[MatchGrid, IcpTarget]:
         if self._built is None:
             res, sigma, margin = self._grid_args
-            self._built = (MatchGrid(self.points, res, sigma, margin=margin), IcpTarget.from_points(self.points))
+            pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
+            self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
         return self._built
 
     @property
@@ -133,10 +136,8 @@ class LoopFinder:
         if len(idx) > 40:
             idx = idx[np.linspace(0, len(idx) - 1, 40).astype(int)]
         anchor = s.poses[a]
-        pts = np.vstack([se2.transform_points(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx])
-        pts = _thin(pts, c.resolution / 2)
-        return Submap(a, pts, self.descriptor(a), c.resolution, c.sigma, c.radius_max + 1.0,
-                      Coverage(pts, 0.25) if coverage else None)
+        scans = [(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx]  # poses frozen now
+        return Submap(a, scans, self.descriptor(a), c.resolution, c.sigma, c.radius_max + 1.0, coverage)
 
     def candidates(self, i: int) -> list[tuple[Submap, float]]:
         """(submap, search radius) of frozen submaps near scan i in the estimate, most similar first; if there

@@ -5,7 +5,9 @@ check after optimising (a closure still inconsistent with the rest of the graph 
 A submap is the scans within ±`submap_distance` of path around an anchor scan, frozen in the anchor's
 frame once the robot has driven past it. The search radius around the current estimate grows with the
 path driven since the submap (or since the last accepted closure, whichever is shorter): that is how far
-odometry drift can have carried the estimate.
+odometry drift can have carried the estimate. Where no submap passes the proximity and descriptor gates,
+longer submaps that cover what the scan sees are tried instead, whatever the heading (`slam.loop_coverage`):
+their matches must stand out from shifted poses, and a weak one waits for a loop group to agree with it.
 """
 
 from __future__ import annotations

@@ -85,12 +85,35 @@ class LoopConfig(StrictModel):
     max_candidates: int = Field(2, ge=1, description="submaps verified per scan")
     descriptor_rings: int = Field(24, ge=2)
     descriptor_max_distance: float = Field(0.15, gt=0, description="ring-CDF distance gate (0 … 1)")
+    coverage: bool = Field(True, description="when no submap passes the candidate gates above, try the long "
+                           "submaps (`coverage_submap_distance`) whose returns lie within the search radius of "
+                           "enough of the scan's returns in the estimate, whatever the heading, longest loop "
+                           "first (`slam.loop_coverage`); verified on those returns, must be distinct, and may "
+                           "be weak (`weak_min_score`)")
+    coverage_min_share: float = Field(0.4, gt=0, le=1, description="… share of the scan's returns covered")
+    coverage_reach: float = Field(20.0, gt=0, description="… anchors farther than this from the scan are not "
+                                  "looked at, m")
+    coverage_candidates: int = Field(1, ge=1, description="… submaps verified per scan")
+    coverage_points: int = Field(80, ge=10, description="… scan points scored by their branch and bound")
+    coverage_angle_range: float = Field(5.0, gt=0, description="… whose rotation step moves a point this far "
+                                        "away by one cell (ICP refines below it), m")
+    coverage_submap_distance: float = Field(10.0, gt=0, description="… those submaps: scans within ± this "
+                                            "path length, m")
     submap_distance: float = Field(4.0, gt=0, description="submap: scans within ± this path length, m")
     submap_spacing: float = Field(2.0, gt=0, description="a submap every this much path, m")
     resolution: float = Field(0.1, gt=0, description="verification grid cell, m")
     sigma: float = Field(0.1, gt=0, description="m")
     min_score: float = Field(0.55, gt=0, lt=1, description="branch-and-bound score to accept a match")
     min_inliers: float = Field(0.6, gt=0, le=1, description="ICP inlier share (within 0.1 m) to accept")
+    weak_min_score: float | None = Field(0.35, gt=0, lt=1, description="a coverage match between this and "
+                                         "`min_score` (or with inliers between `weak_min_inliers` and "
+                                         "`min_inliers`) is never added alone: it waits as pending until a loop "
+                                         "group agrees with it (`slam.loop_groups`; None: rejected)")
+    weak_min_inliers: float = Field(0.35, gt=0, le=1, description="… ICP inlier share of a weak match")
+    weak_max_rival: float = Field(0.9, gt=0, le=1, description="… and every coverage match must be "
+                                  "distinct: no pose of the scan shifted more than 0.5 m (within the search "
+                                  "radius) may score above this share of its score (a corridor's walls fit "
+                                  "anywhere along it, and consecutive scans then agree on the same wrong shift)")
     max_rmse: float = Field(0.06, gt=0, description="ICP inlier RMSE to accept, m")
     min_points: int = Field(80, ge=10, description="scans with fewer returns are not tried")
     sigma_floor_xy: float = Field(0.03, gt=0, description="m")

@@ -5,7 +5,9 @@ check after optimising (a closure still inconsistent with the rest of the graph 
 A submap is the scans within ±`submap_distance` of path around an anchor scan, frozen in the anchor's
 frame once the robot has driven past it. The search radius around the current estimate grows with the
 path driven since the submap (or since the last accepted closure, whichever is shorter): that is how far
-odometry drift can have carried the estimate.
+odometry drift can have carried the estimate. Where no submap passes the proximity and descriptor gates,
+longer submaps that cover what the scan sees are tried instead, whatever the heading (`slam.loop_coverage`):
+their matches must stand out from shifted poses, and a weak one waits for a loop group to agree with it.
 """
 
 from __future__ import annotations
@@ -25,19 +27,41 @@ from slam.edge_switch import rank_edges
 from slam.icp import IcpTarget, icp
 from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
+from slam.loop_coverage import Coverage
 from slam.loop_groups import Pending, largest_group
+from slam.match_covariance import translation_surface
 from slam.pose_graph import Kernel, gaussian
 
 if TYPE_CHECKING:
     from slam.log_slam import LogSlam
 
 
-@dataclass(frozen=True, slots=True)
 class Submap:
-    anchor: int
-    grid: MatchGrid  # in the anchor's frame
-    target: IcpTarget
-    descriptor: np.ndarray
+    """Scans around an anchor, in the anchor's frame. The points, match grid and ICP target are built when first
+    verified against (many submaps never are)."""
+
+    def __init__(self, anchor: int, scans: list[tuple[se2.PoseTuple, np.ndarray]], descriptor: np.ndarray,
+                 resolution: float, sigma: float, margin: float, coverage: bool = False) -> None:
+        self.anchor, self.descriptor, self._scans = anchor, descriptor, scans
+        self._grid_args = (resolution, sigma, margin)
+        self._built: tuple[MatchGrid, IcpTarget] | None = None
+        self.coverage = Coverage(np.vstack([se2.transform_points(p, pts[::4]) for p, pts in scans]), 0.25) \
+            if coverage else None
+
+    def _build(self) -> tuple[MatchGrid, IcpTarget]:
+        if self._built is None:
+            res, sigma, margin = self._grid_args
+            pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
+            self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
+        return self._built
+
+    @property
+    def grid(self) -> MatchGrid:
+        return self._build()[0]
+
+    @property
+    def target(self) -> IcpTarget:
+        return self._build()[1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,6 +88,7 @@ class LoopFinder:
         self.slam = slam
         self.anchors: list[int] = []
         self.submaps: dict[int, Submap] = {}
+        self.wide: dict[int, Submap] = {}  # longer submaps for coverage candidates (`slam.loop_coverage`)
         self.history: list[Closure] = []
         self.reasons: Counter[str] = Counter()
         self._last_try = -math.inf
@@ -94,30 +119,31 @@ class LoopFinder:
             self.anchors.append(i)
         for a in self.anchors:  # freeze submaps the robot has driven past
             if a not in self.submaps and path[i] - path[a] > c.submap_distance:
-                self.submaps[a] = self._build(a)
+                self.submaps[a] = self._build(a, c.submap_distance, coverage=False)
+            if c.coverage and a not in self.wide and path[i] - path[a] > c.coverage_submap_distance:
+                self.wide[a] = self._build(a, c.coverage_submap_distance, coverage=True)
         if path[i] - self._last_try < c.every_distance or len(s.points[i]) < c.min_points:
             return
         self._last_try = path[i]
-        for a, radius in self.candidates(i):
-            closure = self.verify(i, a, radius)
+        for sm, radius in self.candidates(i):
+            closure = self.verify(i, sm, radius)
             if closure.accepted:
                 break
 
-    def _build(self, a: int) -> Submap:
+    def _build(self, a: int, distance: float, coverage: bool) -> Submap:
         s, c = self.slam, self.config
         path = np.array(s.path)
-        idx = np.nonzero(np.abs(path - path[a]) <= c.submap_distance)[0]
+        idx = np.nonzero(np.abs(path - path[a]) <= distance)[0]
         idx = idx[idx <= len(s.poses) - 1]
         if len(idx) > 40:
             idx = idx[np.linspace(0, len(idx) - 1, 40).astype(int)]
         anchor = s.poses[a]
-        pts = np.vstack([se2.transform_points(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx])
-        pts = _thin(pts, c.resolution / 2)
-        return Submap(a, MatchGrid(pts, c.resolution, c.sigma, margin=c.radius_max + 1.0),
-                      IcpTarget.from_points(pts), self.descriptor(a))
+        scans = [(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx]  # poses frozen now
+        return Submap(a, scans, self.descriptor(a), c.resolution, c.sigma, c.radius_max + 1.0, coverage)
 
-    def candidates(self, i: int) -> list[tuple[int, float]]:
-        """(anchor, search radius) of frozen submaps near scan i in the estimate, most similar first."""
+    def candidates(self, i: int) -> list[tuple[Submap, float]]:
+        """(submap, search radius) of frozen submaps near scan i in the estimate, most similar first; if there
+        are none and `coverage` is on, the long submaps that cover scan i (`slam.loop_coverage`)."""
         c, s = self.config, self.slam
         path = s.path
         here = s.poses[i]
@@ -137,23 +163,64 @@ class LoopFinder:
                 continue
             found.append((desc + 0.02 * d, a, radius))
         found.sort()
-        return [(a, r) for _, a, r in found[: c.max_candidates]]
+        if not found and c.coverage:
+            return self._covering(i)
+        return [(self.submaps[a], r) for _, a, r in found[: c.max_candidates]]
 
-    def verify(self, i: int, a: int, radius: float) -> Closure:
+    def _covering(self, i: int) -> list[tuple[Submap, float]]:
         c, s = self.config, self.slam
-        sm = self.submaps[a]
+        path, here, probe = s.path, s.poses[i], self._probe(i)
+        found: list[tuple[float, int, float]] = []
+        for a, sm in self.wide.items():
+            sep = path[i] - path[a]
+            p = s.poses[a]
+            if sep < c.min_path_separation + c.coverage_submap_distance or sm.coverage is None or \
+                    math.hypot(p[0] - here[0], p[1] - here[1]) > c.coverage_reach:
+                continue
+            drift = min(sep, path[i] - self._last_closure_path + c.coverage_submap_distance)
+            radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
+            if float(sm.coverage.covered(probe, se2_between(p, here), radius).mean()) >= c.coverage_min_share:
+                found.append((-sep, a, radius))  # the longest loop first: it bounds the most drift
+        found.sort()
+        return [(self.wide[a], r) for _, a, r in found[: c.coverage_candidates]]
+
+    def _probe(self, i: int) -> np.ndarray:
+        pts = self.slam.points[i]
+        return pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
+
+    def verify(self, i: int, sm: Submap, radius: float) -> Closure:
+        c, s = self.config, self.slam
+        a = sm.anchor
         guess = se2_between(s.poses[a], s.poses[i])
         pts = s.points[i]
-        sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
-        res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window, min_score=c.min_score)
+        if sm.coverage is not None:  # verify on the returns the submap can explain
+            pts = pts[sm.coverage.covered(pts, guess, radius)]
+            if len(pts) < c.min_points:
+                return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "too_few_covered"))
+        n, angle_range = (120, 10.0) if sm.coverage is None else (c.coverage_points, c.coverage_angle_range)
+        sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), n)).astype(int)]
+        weak = c.weak_min_score if sm.coverage is not None and self.config.groups.enabled else None
+        res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window,
+                     max_range_for_step=angle_range,
+                     min_score=c.min_score if weak is None else min(weak, c.min_score))
         if res is None:
             return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "no_match_above_min_score"))
         fit = icp(pts, sm.target, res.pose, max_correspondence=2 * c.resolution, inlier_distance=0.1,
                   range_sigma=0.05)
-        if not (fit.converged and fit.inlier_ratio >= c.min_inliers and fit.rmse <= c.max_rmse):
+        strong = res.score >= c.min_score and fit.inlier_ratio >= c.min_inliers
+        if not (fit.converged and fit.rmse <= c.max_rmse
+                and (strong or (weak is not None and fit.inlier_ratio >= c.weak_min_inliers))):
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "icp_fitness"))
         cov = np.linalg.inv(fit.information + 1e-9 * np.eye(3)) + self._floor
+        if sm.coverage is not None and _rival(sm.grid, sub, fit.pose, radius) > c.weak_max_rival * res.score:
+            # a corridor's walls fit anywhere along it: the match must stand out (coverage has no descriptor)
+            return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
+                                        "not_distinct"))
+        if not strong:  # too little overlap to trust alone: only a group of agreeing closures may add it
+            self._try_group(Pending(a, i, fit.pose, cov, res.score, fit.inlier_ratio, fit.rmse))
+            return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
+                                        "weak_pending"))
         return self.add(a, i, fit.pose, cov, res.score, fit.inlier_ratio, fit.rmse)
 
     def add(self, target: int, source: int, relative: se2.PoseTuple, covariance: np.ndarray, score: float = 1.0,
@@ -308,6 +375,13 @@ class LoopFinder:
         self.history.append(closure)
         self.reasons[closure.reason] += 1
         return closure
+
+
+def _rival(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, radius: float) -> float:
+    """Best score of `points` at `pose` shifted by 0.5 … `radius` m (0.15 m lattice, same rotation)."""
+    offsets, scores = translation_surface(grid, points, pose, radius, 0.15)
+    far = np.hypot(offsets[:, 0], offsets[:, 1]) > 0.5
+    return float(scores[far].max()) if far.any() else 0.0
 
 
 def _thin(points: np.ndarray, spacing: float) -> np.ndarray:

@@ -24,16 +24,19 @@ def drifted(truth: list[Pose2D], yaw_bias_per_m: float, rng: np.random.Generator
     return synth.wheel_odometry(truth, rng, slip=0.01, bias=yaw_bias_per_m)
 
 
-def flaser_line(pose: Pose2D, odom: Pose2D, stamp: float, rng: np.random.Generator, beams: int = 181) -> str:
-    """`beams` beams from −90° to +90° (the 180°/(n−1) layout), range noise 1 cm, max range 10 m."""
-    full = synth.raycast(SEGS, pose, beams=2 * (beams - 1), noise=0.01, rng=rng)
+def flaser_line(pose: Pose2D, odom: Pose2D, stamp: float, rng: np.random.Generator, beams: int = 181,
+                segments: np.ndarray = SEGS, max_range: float = 10.0) -> str:
+    """`beams` beams from −90° to +90° (the 180°/(n−1) layout), range noise 1 cm, no return written as
+    `max_range`."""
+    full = synth.raycast(segments, pose, beams=2 * (beams - 1), max_range=max_range, noise=0.01, rng=rng)
     r = full.ranges[(beams - 1) // 2:(beams - 1) // 2 + beams]  # −90° … +90°
-    vals = " ".join(f"{(v if math.isfinite(v) else 10.0):.3f}" for v in r)
+    vals = " ".join(f"{(v if math.isfinite(v) else max_range):.3f}" for v in r)
     return (f"FLASER {beams} {vals} {pose.x:.6f} {pose.y:.6f} {pose.yaw:.6f} {pose.x:.6f} {pose.y:.6f} "
             f"{pose.yaw:.6f} {stamp:.6f} synth {stamp:.6f}")
 
 
-def write_log(path: Path, truth: list[Pose2D], odom: list[Pose2D], rng: np.random.Generator, dt: float = 0.5) -> None:
+def write_log(path: Path, truth: list[Pose2D], odom: list[Pose2D], rng: np.random.Generator, dt: float = 0.5,
+              segments: np.ndarray = SEGS, max_range: float = 10.0) -> None:
     """Scans every `dt` s; ODOM lines at t ± dt/4 hold the odometry interpolated there (linear in x, y, yaw
     between the scan's odometry poses), so reading them back and interpolating to t gives `odom` exactly."""
     lines = ["# simulated CARMEN log (fleetnav tests)"]
@@ -42,7 +45,7 @@ def write_log(path: Path, truth: list[Pose2D], odom: list[Pose2D], rng: np.rando
         if k > 0:
             lines.append(_odom(_mid(odom[k - 1], o, 0.75), t - dt / 4))
         lines.append(_odom(o, t))
-        lines.append(flaser_line(p, o, t, rng))
+        lines.append(flaser_line(p, o, t, rng, segments=segments, max_range=max_range))
     text = "\n".join(lines) + "\n"
     if path.suffix == ".gz":
         with gzip.open(path, "wt", encoding="utf-8") as f:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import secrets
 import shutil
 import signal
 import socket
@@ -39,6 +40,7 @@ def local_cluster(cpus: int = 2, timeout_s: float = 90.0, connect: bool = True) 
         raise RuntimeError("set RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0 before importing ray")
     port = free_port()
     temp = tempfile.mkdtemp(prefix="rt", dir="/tmp")  # short: Ray's socket paths must fit in 107 bytes
+    _ensure_token()
     cmd = [str(Path(sys.executable).with_name("ray")), "start", "--head", f"--port={port}", f"--num-cpus={cpus}",
            "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={temp}"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -56,6 +58,17 @@ def local_cluster(cpus: int = 2, timeout_s: float = 90.0, connect: bool = True) 
             ray.shutdown()
         _kill_group(proc.pid)
         shutil.rmtree(temp, ignore_errors=True)
+
+
+def _ensure_token() -> None:
+    """`ray start` refuses to start in token mode without a token, and a fresh machine has none (`ray.init()`
+    would write ~/.ray/auth_token, `ray start` does not). Unless the user configured one, give this process's
+    clusters one token for the process's life (the driver caches the token it first reads)."""
+    if os.environ.get("RAY_AUTH_TOKEN") or os.environ.get("RAY_AUTH_TOKEN_PATH"):
+        return
+    if (Path.home() / ".ray" / "auth_token").is_file():
+        return
+    os.environ["RAY_AUTH_TOKEN"] = secrets.token_hex(32)  # inherited by `ray start` and its daemons
 
 
 def _kill_group(pgid: int) -> None:

@@ -70,9 +70,12 @@ def cut(sched: Schedule, here: np.ndarray, plan: dict[int, int]) -> int:
     """Apply a closed cut set (cut_set): each robot's queue after its stay index is withdrawn; returns the moves
     withdrawn."""
     cells = {j: _cells(sched, j, int(here[j])) for j in plan}
-    touched = {v for j, p in plan.items() for v in cells[j][p + 1:]}
-    for v in touched:
-        keep = {j: cells[j][1:p + 1].count(v) for j, p in plan.items()}  # entries into v kept, per robot
+    touched: dict[int, set[int]] = {}  # cell -> robots with an entry into it withdrawn
+    for j, p in plan.items():
+        for v in cells[j][p + 1:]:
+            touched.setdefault(v, set()).add(j)
+    for v, robots in touched.items():
+        keep = {j: cells[j][1:plan[j] + 1].count(v) for j in robots}  # entries into v kept, per robot
         seen: dict[int, int] = {}
         kept = []
         for m in sched.fifo[v]:
@@ -123,5 +126,14 @@ def free_ahead(sched: Schedule, here: np.ndarray, priority: np.ndarray, waiting:
 def flush(sched: Schedule, here: np.ndarray) -> int:
     """Withdraw every unstarted move (each robot cut back to the cell it holds or has claimed): always a closed
     cut set, since nobody is then planned into any cell. PIBT then re-plans from the committed configuration."""
-    plan = {j: 0 for j in range(len(sched.queue)) if sched.queue[j]}
-    return cut(sched, here, plan) if plan else 0
+    total = 0
+    for j, q in enumerate(sched.queue):
+        if q:
+            total += len(q)
+            for v, _ in q:
+                sched.fifo[v].clear()
+            q.clear()
+            sched.tail[j] = here[j]
+            sched.before[j] = -1
+    sched.head_step[:] = BIG
+    return total

@@ -33,7 +33,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 physics_hz: float = 50.0, window: int = 1, lidar: str = "360 beams 10 Hz",
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
-                congestion: float = 0.0, urgent_rank: str = "since_progress") -> dict[str, Any]:
+                congestion: float = 0.0, urgent_rank: str = "since_progress",
+                withdraw: str = "off", flush_s: float = 1.0) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -41,7 +42,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed, window=window, priority=priority,
                              urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost,
                              push_frozen=push_frozen, congestion=congestion,
-                             urgent_rank=urgent_rank)
+                             urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -118,7 +119,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
                 f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
-                f"window {window}), "
+                f"window {window}, withdraw {withdraw}"
+                f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,
                 "done": len(done),
@@ -131,6 +133,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 **waits.summary(svc.world.time), "classify_cpu_s": waits.cpu_s,
                 "world_contacts": episodes["world_contacts"],
                 "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
+                "withdrawn": d["withdrawn"],
                 "rtf": svc.world.time / wall,
                 "rtf_cpu": svc.world.time / cpu, "wall_s": wall, "cpu_s": cpu,
                 "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}"}

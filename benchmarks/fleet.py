@@ -182,6 +182,11 @@ def main() -> None:
     ap.add_argument("--congestion", type=float, default=4.0,
                     help="traffic layer, rule cong: toll per unit of recent occupancy for entering a cell "
                          "(congestion-aware routing, fleet/traffic/congestion.py; default 4)")
+    ap.add_argument("--withdraw", nargs="*", choices=("off", "loops", "ahead", "both", "flush"), default=["off"],
+                    help="traffic layer: withdraw unstarted moves, one run each: loops = planned loops; ahead = moves "
+                         "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); default off")
+    ap.add_argument("--flush-s", type=float, default=1.0,
+                    help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -203,14 +208,15 @@ def main() -> None:
                          "obstacle_hits", "world_contacts", "closest_robot_gap_m", "closest_obstacle_gap_m",
                          "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "longest_open_s",
                          "cycle_waits", "longest_cycle_wait_s", "queue_waits", "longest_queue_wait_s", "classify_cpu_s",
-                         "fields_computed",
+                         "fields_computed", "withdrawn",
                          "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    for prio, rule in itertools.product(a.priority, a.rule):
+                    for prio, rule, wd in itertools.product(a.priority, a.rule, a.withdraw):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
+                                        withdraw=wd, flush_s=a.flush_s,
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

@@ -98,6 +98,10 @@ class TrafficSection(StrictModel):
         "to become urgent first")
     congestion: float = Field(0.0, ge=0, le=100, description="toll per unit of a cell's recent occupancy in the "
                               "fields robots pick moves by (0: off; for fleets that saturate an aisle)")
+    withdraw: Literal["off", "loops", "ahead", "both", "flush"] = Field(
+        "off", description="planned moves not yet started that are withdrawn: loops, moves ahead of an urgent robot, "
+        "both, or all every flush_s (a re-plan from the committed cells)")
+    flush_s: float = Field(1.0, gt=0, le=60, description="period of withdraw: flush, s")
 
 
 class TaskEntry(StrictModel):

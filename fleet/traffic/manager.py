@@ -22,7 +22,7 @@ oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py
 column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
 that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
 yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
-routing (congestion.py).
+routing (congestion.py) and withdrawing planned moves not yet started (`withdraw`, withdraw.py).
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
 from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
+from fleet.traffic.withdraw import flush, free_ahead
 from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.transforms import wrap_angles
 
@@ -49,6 +50,7 @@ TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
 URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (see _plan)
+WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdrawn (withdraw.py)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -63,6 +65,7 @@ class TrafficManager:
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
+                 withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
                  record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
@@ -103,6 +106,12 @@ class TrafficManager:
             self.pibt.field = self.congestion.to
         self.pibt.push_frozen = push_frozen
         self.window = window
+        if withdraw not in WITHDRAW:
+            raise unknown_name("traffic withdraw", withdraw, list(WITHDRAW), ErrorCode.INVALID_ARGUMENT)
+        if not (math.isfinite(flush_s) and flush_s > 0):
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic flush_s must be > 0 s, got {flush_s}")
+        self.flush_s, self._flush_at = flush_s, 0.0
+        self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
@@ -134,7 +143,7 @@ class TrafficManager:
         self.on_reached: Callable[[str, float], None] | None = None
         self.open_stalls: dict[str, tuple[float, list[str], str]] = {}
         self.stats: dict[str, Any] = {"steps": 0, "moves": 0, "reached": 0, "deadlocks": 0, "resolved": 0,
-                                      "longest_deadlock_s": 0.0, "pushes": 0, "ticks": 0, "cpu_s": 0.0}
+                                      "longest_deadlock_s": 0.0, "pushes": 0, "ticks": 0, "cpu_s": 0.0, "withdrawn": 0}
 
     # ---- robots and goals --------------------------------------------------------------------------------
 
@@ -243,6 +252,8 @@ class TrafficManager:
         near = np.hypot(*(pos - xy[self.b]).T) < ARRIVE_TOL
         for i in np.flatnonzero(moving & (self.s >= 1.0 - 1e-9) & ((self.claim >= 0) | near)).tolist():
             self._arrive(i, now)
+        if self.withdraw != "off":
+            self._withdraw(now)
         # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
         #    the one after when it continues straight on (no stop at the centre)
         queued = sched.head_step < BIG
@@ -270,6 +281,19 @@ class TrafficManager:
             self._plan(now)
         self._stalls(now)
         return dict(zip(self.names, zip(v.tolist(), w.tolist(), strict=True), strict=True))
+
+    def _withdraw(self, now: float) -> None:
+        here = np.where(self.claim >= 0, self.claim, self.b)
+        if self.withdraw in ("loops", "both"):
+            for i in np.flatnonzero(self.sched.queued >= 2).tolist():
+                self.stats["withdrawn"] += self.sched.withdraw_loops(i, int(here[i]))
+        if self.withdraw == "flush" and now >= self._flush_at:
+            self._flush_at = now + self.flush_s
+            self.stats["withdrawn"] += flush(self.sched, here)
+        if self.withdraw in ("ahead", "both"):
+            priority = self._priority(now)
+            waiting = (priority >= URGENT) & (self.a == self.b) & (self.sched.head_step < BIG)
+            self.stats["withdrawn"] += free_ahead(self.sched, here, priority, np.flatnonzero(waiting).tolist())
 
     def _drive(self, now: float, dt: float, pos: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         xy, cell, sched = self.grid.xy, self.grid.cell, self.sched
@@ -351,8 +375,22 @@ class TrafficManager:
 
     def _plan(self, now: float) -> None:
         tail = self.sched.tail
+        priority = self._priority(now)
+        if self.congestion is not None:
+            self.congestion.refresh(now)
+        frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
+        ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
+        prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
+        nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),
+                         np.int64)
+        self.sched.append(nxt)
+        self.stats["steps"] += 1
+        self.stats["pushes"] += len(self.pibt.pushes)
+
+    def _priority(self, now: float) -> np.ndarray:
+        """PIBT's priority of every robot now (marks robots that have become urgent)."""
         since = self.best_at if self.priority == "since_progress" else self.since
-        priority = (now - since) * (self.goal != tail) + self._tie
+        priority = (now - since) * (self.goal != self.sched.tail) + self._tie
         if self.urgent_s is not None:
             # Aging: a robot that has not come closer for urgent_s outranks every other robot until it reaches
             # its goal (earliest first among the urgent, a fixed order), so two robots cannot take turns
@@ -365,16 +403,7 @@ class TrafficManager:
             # needs a robot to come strictly closer than its best, so the order cannot cycle for ever.
             order = self.best_at if self.urgent_rank == "since_progress" else self.urgent_at
             priority = np.where(urgent, URGENT + (now - order), priority)
-        if self.congestion is not None:
-            self.congestion.refresh(now)
-        frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
-        ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
-        prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
-        nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),
-                         np.int64)
-        self.sched.append(nxt)
-        self.stats["steps"] += 1
-        self.stats["pushes"] += len(self.pibt.pushes)
+        return priority
 
     def _stalls(self, now: float) -> None:
         """Deadlock events: robots whose distance to goal has not improved for stall_s, and who they wait for."""

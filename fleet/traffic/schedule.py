@@ -123,3 +123,73 @@ class Schedule:
                 break
             out.append(k)
         return sorted(set(out))
+
+    def withdraw_loops(self, i: int, here: int) -> int:
+        """Withdraw robot i's planned loops: unstarted moves that bring it back to a cell it is in (`here`: the
+        cell it is in or has claimed) or will be in earlier in its queue. The moves from the first visit of X to
+        the last are cut, so the robot stays in X instead of going round (a pushed robot's back-and-forth, which
+        every robot planned after it through those cells would wait for). Returns the moves withdrawn.
+
+        Safe when no other robot is in X's FIFO between i's first visit and its last: then the ADG without the
+        loop has no edge whose endpoints were not already ordered the same way by a path through the loop (a
+        FIFO successor of a withdrawn entry now follows the entry before it, which it followed through i; i's
+        move out of X after the loop is unchanged), so the graph stays acyclic, every cell is still entered
+        one robot at a time, and the robots' tails stay distinct (the loop ends where it began)."""
+        q = self.queue[i]
+        if len(q) < 2:
+            return 0
+        cells = [here, *(v for v, _ in q)]
+        cut = [False] * len(cells)  # by cell index: queue entry k - 1 withdrawn
+        last = {v: k for k, v in enumerate(cells)}
+        p = 0
+        while p < len(cells) - 1:
+            r = last[cells[p]]
+            if r > p and self._loop_alone(i, cells, cut, p, r):
+                for k in range(p + 1, r + 1):
+                    cut[k] = True
+                p = r
+            p += 1
+        if not any(cut):
+            return 0
+        drop: dict[int, set[int]] = {}  # cell -> ranks of i's entries into it to withdraw
+        seen: dict[int, int] = {}
+        for k in range(1, len(cells)):
+            v = cells[k]
+            rank = seen.get(v, 0)
+            seen[v] = rank + 1
+            if cut[k]:
+                drop.setdefault(v, set()).add(rank)
+        for v, ranks in drop.items():
+            kept: deque[int] = deque()
+            rank = 0
+            for k in self.fifo[v]:
+                if k == i:
+                    rank += 1
+                    if rank - 1 in ranks:
+                        continue
+                kept.append(k)
+            self.fifo[v] = kept
+        kept_moves = [m for k, m in enumerate(q, 1) if not cut[k]]
+        q.clear()
+        q.extend(kept_moves)
+        self.head_step[i] = q[0][1] if q else BIG
+        if cut[-1]:  # the tail is unchanged (the loop ended where it began); the cell before it is not
+            prev = [c for k, c in enumerate(cells[:-1]) if not cut[k]]
+            self.before[i] = prev[-2] if len(prev) >= 2 else -1
+        return sum(cut)
+
+    def _loop_alone(self, i: int, cells: list[int], cut: list[bool], p: int, r: int) -> bool:
+        """Is nobody else in the FIFO of X = cells[p] between i's entry at p (or the start, when i holds X) and
+        its entry at r?"""
+        x = cells[p]
+        first = sum(1 for k in range(1, p + 1) if cells[k] == x)  # i's entries into X up to p (0 when p = 0)
+        last = first + sum(1 for k in range(p + 1, r + 1) if cells[k] == x)
+        rank = 0
+        for k in self.fifo[x]:
+            if k == i:
+                rank += 1
+                if rank == last:
+                    return True
+            elif rank >= first:
+                return False
+        return False

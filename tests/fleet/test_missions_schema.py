@@ -154,3 +154,6 @@ def test_every_traffic_key_is_a_layer_setting_and_bad_values_are_named() -> None
         TrafficSection.model_validate({"urgent_rank": "oldest"})
     with pytest.raises(ValueError, match="congestion"):
         TrafficSection.model_validate({"congestion": -1})
+    assert TrafficSection.model_validate({"withdraw": "flush", "flush_s": 2}).withdraw == "flush"
+    with pytest.raises(ValueError, match="withdraw"):
+        TrafficSection.model_validate({"withdraw": "all"})

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from fleet.traffic.admission import ADMISSION, Admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
@@ -66,7 +67,7 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 record: bool = False) -> None:
+                 admission: Literal["off", "aimd"] = "off", record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -112,6 +113,9 @@ class TrafficManager:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic flush_s must be > 0 s, got {flush_s}")
         self.flush_s, self._flush_at = flush_s, 0.0
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
+        if admission not in ADMISSION:
+            raise unknown_name("traffic admission", admission, list(ADMISSION), ErrorCode.INVALID_ARGUMENT)
+        self.admission = Admission(cooldown_s=stall_s) if admission != "off" else None  # new goals held while congested
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
@@ -169,7 +173,21 @@ class TrafficManager:
             setattr(self, k, np.append(getattr(self, k), v))
 
     def go(self, robot: str, x: float, y: float) -> int:
-        """Send a robot to the free cell nearest (x, y); returns the goal node."""
+        """Send a robot to the free cell nearest (x, y); returns the goal node. With admission on, a goal given
+        while the layer is congested is held (the robot stays idle, pushable) until admitted, in FIFO order."""
+        node = self._goal_node(robot, x, y)
+        adm, i = self.admission, self._idx[robot]
+        if adm is not None and (adm.held(robot) or adm.must_hold(int(np.count_nonzero(self.pending)))):
+            adm.hold(robot, x, y, self.service.world.time)
+            self.goal[i], self.pending[i] = self.sched.tail[i], False
+            return node
+        return self._set_goal(i, node)
+
+    def held(self, robot: str) -> bool:
+        """The robot's goal is held by admission (not started yet)."""
+        return self.admission is not None and self.admission.held(robot)
+
+    def _goal_node(self, robot: str, x: float, y: float) -> int:
         i = self._idx[robot]
         node = self.grid.node_at(x, y)
         node = node if node >= 0 else self.grid.nearest_node(x, y)
@@ -177,9 +195,12 @@ class TrafficManager:
         if not np.isfinite(d):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"goal ({x:.2f}, {y:.2f}) is not reachable from "
                              f"'{robot}' on the traffic grid", "pick a goal in the same free region")
+        return node
+
+    def _set_goal(self, i: int, node: int) -> int:
         self.goal[i] = node
         self.since[i] = self.best_at[i] = self.service.world.time
-        self.best[i] = d
+        self.best[i] = self.grid.fields.to(node)[self.a[i]]
         self.urgent_at[i] = math.inf
         self.pending[i] = node != self.a[i] or self.a[i] != self.b[i]
         return node
@@ -212,12 +233,16 @@ class TrafficManager:
         """No new steps are planned; moves already scheduled still run (others depend on them)."""
         self.goal = self.sched.tail.copy()
         self.pending[:] = False
+        if self.admission is not None:
+            self.admission.queue.clear()
 
     def release(self, robot: str, reason: str) -> None:
         """A robot leaves the layer only at rest with nothing scheduled (others' safety and order depend on it)."""
         i = self._idx.get(robot)
         if i is None or self.a[i] != self.b[i] or self.sched.queue[i] or self.sched.tail[i] != self.a[i]:
             return
+        if self.admission is not None:
+            self.admission.drop(robot)
         self.sched.remove(i, int(self.a[i]))
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
@@ -276,11 +301,32 @@ class TrafficManager:
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
         #    queued already plan no move of their own (bounded look-ahead; as in Causal-PIBT only robots ready to
         #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
+        if self.admission is not None:
+            self._admit(now)
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)
         self._stalls(now)
         return dict(zip(self.names, zip(v.tolist(), w.tolist(), strict=True), strict=True))
+
+    def _admit(self, now: float) -> None:
+        """Admission: adapt the limit, start held goals within it (FIFO), and keep held robots idle where PIBT
+        last pushed them (their goal is their cell: they never plan moves of their own, so they block nobody
+        more than a robot at rest does, and PIBT pushes them like any robot without a goal)."""
+        adm = self.admission
+        assert adm is not None
+        active = int(np.count_nonzero(self.pending))
+        adm.update(now, active, int(np.count_nonzero(self.pending & (now - self.best_at >= self.stall_s))))
+        for h in adm.admit(active, now):
+            i = self._idx[h.robot]
+            self._set_goal(i, self._goal_node(h.robot, h.x, h.y))
+            if not self.pending[i]:  # pushed onto its goal cell while held: already there
+                self.stats["reached"] += 1
+                if self.on_reached is not None:
+                    self.on_reached(h.robot, now)
+        for h in adm.queue:
+            i = self._idx[h.robot]
+            self.goal[i] = self.sched.tail[i]
 
     def _withdraw(self, now: float) -> None:
         here = np.where(self.claim >= 0, self.claim, self.b)
@@ -442,4 +488,6 @@ class TrafficManager:
                 "open_deadlocks": len(self.open_stalls),
                 "longest_open_deadlock_s": max((self.service.world.time - t0 + self.stall_s
                                                 for t0, _, _ in self.open_stalls.values()), default=0.0),
-                **self.stats}
+                "admission_limit": self.admission.limit if self.admission else math.inf,
+                "held_now": len(self.admission.queue) if self.admission else 0,
+                **(self.admission.stats if self.admission else {}), **self.stats}

@@ -10,7 +10,8 @@ the share of active robots in a wait (no progress for the layer's `stall_s`) is 
 Above it the limit drops to `decrease` × min(limit, active) (multiplicative decrease), once per drain: not again
 while more robots are active than the last decrease allows, nor within `cooldown_s` (the signal lags by
 `stall_s`). Otherwise, while the limit binds, it grows by `grow` robots per period (additive increase); while it
-does not bind and nothing is held, it is lifted, so a layer that never congests never holds a goal.
+does not bind and nothing is held, it is lifted, so a layer that never congests never holds a goal. Before any
+congestion is seen, the layer starts it at 1/8 of its free cells (manager.py START_DENSITY).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ class Admission:
     """The AIMD limit on active robots and the FIFO of held goals (no robots, no map: the layer drives it)."""
 
     period_s: float = 2.0
-    stalled_share: float = 0.1
+    stalled_share: float = 0.2
     decrease: float = 0.7
     grow: int = 1
     cooldown_s: float = 10.0  # no second decrease sooner: the stall signal lags by the layer's stall_s

@@ -52,6 +52,7 @@ ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
 URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (see _plan)
 WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdrawn (withdraw.py)
+START_DENSITY = 0.125  # admission: robots with goals per free cell before any congestion is seen (admission.py)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -115,7 +116,9 @@ class TrafficManager:
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         if admission not in ADMISSION:
             raise unknown_name("traffic admission", admission, list(ADMISSION), ErrorCode.INVALID_ARGUMENT)
-        self.admission = Admission(cooldown_s=stall_s) if admission != "off" else None  # new goals held while congested
+        # new goals held while congested (admission.py); the limit starts at START_DENSITY robots per free cell
+        self.admission = Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * len(self.grid))) \
+            if admission != "off" else None
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",

@@ -53,7 +53,7 @@ def test_aimd_limit_in_closed_form() -> None:
     adm.update(16.0, active=50, stalled=0)
     assert adm.limit == 51  # additive increase while it binds
     adm.queue.clear()
-    adm.update(18.0, active=20, stalled=0)
+    adm.update(20.0, active=20, stalled=0)
     assert adm.limit == math.inf  # not binding, nobody held: lifted
     assert adm.stats["decreases"] == 2 and adm.stats["lowest_limit"] == 49
 

@@ -22,7 +22,8 @@ oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py
 column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
 that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
 yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
-routing (congestion.py) and withdrawing planned moves not yet started (`withdraw`, withdraw.py).
+routing (congestion.py), withdrawing planned moves not yet started (`withdraw`, withdraw.py) and dispatch
+admission (`admission`, admission.py: new goals held while the layer is congested).
 """
 
 from __future__ import annotations

@@ -29,12 +29,19 @@ from sim import Pose2D
 TOUCH_M = 1e-3  # footprint circles closer than this count as touching
 
 
+def latency_summary(latency: list[float], open_ages: list[float]) -> dict[str, float]:
+    """Task latency (given -> reached, s) of the tasks done, and the oldest task still open at the end."""
+    lat = np.asarray(latency) if latency else np.zeros(1)
+    return {"latency_p50_s": float(np.percentile(lat, 50)), "latency_p95_s": float(np.percentile(lat, 95)),
+            "latency_max_s": float(lat.max()), "oldest_open_task_s": max(open_ages, default=0.0)}
+
+
 def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 1.0, speed: float = 0.8,
                 physics_hz: float = 50.0, window: int = 1, lidar: str = "360 beams 10 Hz",
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
-                withdraw: str = "off", flush_s: float = 1.0) -> dict[str, Any]:
+                withdraw: str = "off", flush_s: float = 1.0, admission: str = "off") -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -42,7 +49,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         tm0 = enable_traffic(svc, cell=cell, speed=speed, seed=seed, window=window, priority=priority,
                              urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost,
                              push_frozen=push_frozen, congestion=congestion,
-                             urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s)
+                             urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s,
+                             admission=admission)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -56,14 +64,18 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
             while True:
                 g = int(rng.integers(len(grid)))
                 if dist_ok(g, int(tm.sched.tail[i])):
+                    given[name] = svc.world.time
                     tm.go(name, *grid.xy[g])
                     return
 
         tm = tm0
         done: list[float] = []
+        given: dict[str, float] = {}
+        latency: list[float] = []  # task given -> reached, including time held by admission
 
         def reached(name: str, now: float) -> None:
             done.append(now)
+            latency.append(now - given[name])
             new_goal(name)
 
         def start() -> None:
@@ -119,7 +131,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
                 f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
-                f"window {window}, withdraw {withdraw}"
+                f"window {window}, withdraw {withdraw}, admission {admission}"
                 f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,
@@ -134,6 +146,10 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 "world_contacts": episodes["world_contacts"],
                 "layer_ms_per_tick": 1000 * d["cpu_s"] / max(d["ticks"], 1), "pibt_steps": d["steps"],
                 "withdrawn": d["withdrawn"],
+                **latency_summary(latency, [svc.world.time - t for nm, t in given.items()
+                                            if tm.pending[tm.names.index(nm)] or tm.held(nm)]),
+                "admission_limit": d["admission_limit"], "lowest_limit": d.get("lowest_limit", np.inf),
+                "held_now": d["held_now"], "longest_hold_s": d.get("longest_hold_s", 0.0),
                 "rtf": svc.world.time / wall,
                 "rtf_cpu": svc.world.time / cpu, "wall_s": wall, "cpu_s": cpu,
                 "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}"}

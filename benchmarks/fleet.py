@@ -187,6 +187,9 @@ def main() -> None:
                          "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); default off")
     ap.add_argument("--flush-s", type=float, default=1.0,
                     help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
+    ap.add_argument("--admission", nargs="*", choices=("off", "aimd"), default=["off"],
+                    help="traffic layer: dispatch admission, one run each: aimd = new goals held (FIFO) while the "
+                         "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); default off")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -208,15 +211,16 @@ def main() -> None:
                          "obstacle_hits", "world_contacts", "closest_robot_gap_m", "closest_obstacle_gap_m",
                          "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "longest_open_s",
                          "cycle_waits", "longest_cycle_wait_s", "queue_waits", "longest_queue_wait_s", "classify_cpu_s",
-                         "fields_computed", "withdrawn",
+                         "fields_computed", "withdrawn", "latency_p50_s", "latency_p95_s", "latency_max_s",
+                         "oldest_open_task_s", "admission_limit", "lowest_limit", "held_now", "longest_hold_s",
                          "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    for prio, rule, wd in itertools.product(a.priority, a.rule, a.withdraw):
+                    for prio, rule, wd, adm in itertools.product(a.priority, a.rule, a.withdraw, a.admission):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
-                                        withdraw=wd, flush_s=a.flush_s,
+                                        withdraw=wd, flush_s=a.flush_s, admission=adm,
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

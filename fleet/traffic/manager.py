@@ -22,7 +22,8 @@ oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py
 column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
 that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
 yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
-routing (congestion.py) and withdrawing planned moves not yet started (`withdraw`, withdraw.py).
+routing (congestion.py), withdrawing planned moves not yet started (`withdraw`, withdraw.py) and dispatch
+admission (`admission`, admission.py: new goals held while the layer is congested).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from fleet.traffic.admission import ADMISSION, Admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
@@ -51,6 +53,7 @@ ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
 URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (see _plan)
 WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdrawn (withdraw.py)
+START_DENSITY = 0.125  # admission: robots with goals per free cell before any congestion is seen (admission.py)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -66,7 +69,7 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 record: bool = False) -> None:
+                 admission: Literal["off", "aimd"] = "off", record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -112,6 +115,11 @@ class TrafficManager:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic flush_s must be > 0 s, got {flush_s}")
         self.flush_s, self._flush_at = flush_s, 0.0
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
+        if admission not in ADMISSION:
+            raise unknown_name("traffic admission", admission, list(ADMISSION), ErrorCode.INVALID_ARGUMENT)
+        # new goals held while congested (admission.py); the limit starts at START_DENSITY robots per free cell
+        self.admission = Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * len(self.grid))) \
+            if admission != "off" else None
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
@@ -169,7 +177,21 @@ class TrafficManager:
             setattr(self, k, np.append(getattr(self, k), v))
 
     def go(self, robot: str, x: float, y: float) -> int:
-        """Send a robot to the free cell nearest (x, y); returns the goal node."""
+        """Send a robot to the free cell nearest (x, y); returns the goal node. With admission on, a goal given
+        while the layer is congested is held (the robot stays idle, pushable) until admitted, in FIFO order."""
+        node = self._goal_node(robot, x, y)
+        adm, i = self.admission, self._idx[robot]
+        if adm is not None and (adm.held(robot) or adm.must_hold(int(np.count_nonzero(self.pending)))):
+            adm.hold(robot, x, y, self.service.world.time)
+            self.goal[i], self.pending[i] = self.sched.tail[i], False
+            return node
+        return self._set_goal(i, node)
+
+    def held(self, robot: str) -> bool:
+        """The robot's goal is held by admission (not started yet)."""
+        return self.admission is not None and self.admission.held(robot)
+
+    def _goal_node(self, robot: str, x: float, y: float) -> int:
         i = self._idx[robot]
         node = self.grid.node_at(x, y)
         node = node if node >= 0 else self.grid.nearest_node(x, y)
@@ -177,9 +199,12 @@ class TrafficManager:
         if not np.isfinite(d):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"goal ({x:.2f}, {y:.2f}) is not reachable from "
                              f"'{robot}' on the traffic grid", "pick a goal in the same free region")
+        return node
+
+    def _set_goal(self, i: int, node: int) -> int:
         self.goal[i] = node
         self.since[i] = self.best_at[i] = self.service.world.time
-        self.best[i] = d
+        self.best[i] = self.grid.fields.to(node)[self.a[i]]
         self.urgent_at[i] = math.inf
         self.pending[i] = node != self.a[i] or self.a[i] != self.b[i]
         return node
@@ -212,12 +237,16 @@ class TrafficManager:
         """No new steps are planned; moves already scheduled still run (others depend on them)."""
         self.goal = self.sched.tail.copy()
         self.pending[:] = False
+        if self.admission is not None:
+            self.admission.queue.clear()
 
     def release(self, robot: str, reason: str) -> None:
         """A robot leaves the layer only at rest with nothing scheduled (others' safety and order depend on it)."""
         i = self._idx.get(robot)
         if i is None or self.a[i] != self.b[i] or self.sched.queue[i] or self.sched.tail[i] != self.a[i]:
             return
+        if self.admission is not None:
+            self.admission.drop(robot)
         self.sched.remove(i, int(self.a[i]))
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
@@ -276,11 +305,32 @@ class TrafficManager:
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
         #    queued already plan no move of their own (bounded look-ahead; as in Causal-PIBT only robots ready to
         #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
+        if self.admission is not None:
+            self._admit(now)
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)
         self._stalls(now)
         return dict(zip(self.names, zip(v.tolist(), w.tolist(), strict=True), strict=True))
+
+    def _admit(self, now: float) -> None:
+        """Admission: adapt the limit, start held goals within it (FIFO), and keep held robots idle where PIBT
+        last pushed them (their goal is their cell: they never plan moves of their own, so they block nobody
+        more than a robot at rest does, and PIBT pushes them like any robot without a goal)."""
+        adm = self.admission
+        assert adm is not None
+        active = int(np.count_nonzero(self.pending))
+        adm.update(now, active, int(np.count_nonzero(self.pending & (now - self.best_at >= self.stall_s))))
+        for h in adm.admit(active, now):
+            i = self._idx[h.robot]
+            self._set_goal(i, self._goal_node(h.robot, h.x, h.y))
+            if not self.pending[i]:  # pushed onto its goal cell while held: already there
+                self.stats["reached"] += 1
+                if self.on_reached is not None:
+                    self.on_reached(h.robot, now)
+        for h in adm.queue:
+            i = self._idx[h.robot]
+            self.goal[i] = self.sched.tail[i]
 
     def _withdraw(self, now: float) -> None:
         here = np.where(self.claim >= 0, self.claim, self.b)
@@ -442,4 +492,6 @@ class TrafficManager:
                 "open_deadlocks": len(self.open_stalls),
                 "longest_open_deadlock_s": max((self.service.world.time - t0 + self.stall_s
                                                 for t0, _, _ in self.open_stalls.values()), default=0.0),
-                **self.stats}
+                "admission_limit": self.admission.limit if self.admission else math.inf,
+                "held_now": len(self.admission.queue) if self.admission else 0,
+                **(self.admission.stats if self.admission else {}), **self.stats}

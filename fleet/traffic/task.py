@@ -64,6 +64,10 @@ class TrafficGoTask(Task):
         tm = ctx.view.traffic_layer()
         if tm is None or self.robot not in tm.names:
             return self.fail(ctx.now, "the robot left the traffic layer")
+        if tm.held(self.robot):  # admission: not started yet, the robot idles where it is
+            self.progress["held"] = True
+            return (0.0, 0.0)
+        self.progress["held"] = False
         i = tm.names.index(self.robot)
         field = tm.grid.fields.to(int(tm.goal[i]))
         self.progress["cell_cost_to_go"] = float(field[tm.a[i]])
@@ -75,6 +79,8 @@ class TrafficGoTask(Task):
     def cancel(self, reason: str) -> None:
         """No new moves are planned for the robot; those already scheduled run (others depend on them)."""
         tm = self.layer
+        if tm is not None and tm.admission is not None:
+            tm.admission.drop(self.robot)
         if tm is not None and self.robot in tm.names:
             i = tm.names.index(self.robot)
             tm.goal[i] = tm.sched.tail[i]

@@ -1,0 +1,97 @@
+"""Dispatch admission for the traffic layer: new goals are held (FIFO) while the layer is congested.
+
+The layer is a closed queueing network: once the robots with goals saturate a bottleneck (a warehouse's central
+aisle), each further active robot adds only queueing there, so waits grow with the fleet and throughput falls
+(docs/benchmarks-fleet.md, "fifth landing, helper 17h"). Real fleet managers therefore admit only as many robots
+to active tasks as the layout carries; the others stay parked until admitted.
+
+The limit is adapted AIMD-style, as TCP's congestion window is, so it needs no per-map tuning: every `period_s`
+the share of active robots in a wait (no progress for the layer's `stall_s`) is compared with `stalled_share`.
+Above it the limit drops to `decrease` × min(limit, active) (multiplicative decrease), once per drain: not again
+while more robots are active than the last decrease allows, nor within `cooldown_s` (the signal lags by
+`stall_s`). Otherwise, while the limit binds, it grows by `grow` robots per period (additive increase); while it
+does not bind and nothing is held, it is lifted, so a layer that never congests never holds a goal. Before any
+congestion is seen, the layer starts it at 1/8 of its free cells (manager.py START_DENSITY).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+ADMISSION = ("off", "aimd")
+
+
+@dataclass
+class Held:
+    """A goal given to a robot but not yet admitted."""
+
+    robot: str
+    x: float
+    y: float
+    since: float  # sim time it was given
+
+
+@dataclass
+class Admission:
+    """The AIMD limit on active robots and the FIFO of held goals (no robots, no map: the layer drives it)."""
+
+    period_s: float = 2.0
+    stalled_share: float = 0.2
+    decrease: float = 0.7
+    grow: int = 1
+    cooldown_s: float = 10.0  # no second decrease sooner: the stall signal lags by the layer's stall_s
+    limit: float = math.inf
+    queue: deque[Held] = field(default_factory=deque)
+    _next: float = 0.0
+    _cut: float = -math.inf
+    stats: dict[str, float] = field(default_factory=lambda: {"held": 0, "admitted": 0, "decreases": 0,
+                                                              "lowest_limit": math.inf, "longest_hold_s": 0.0})
+
+    def held(self, robot: str) -> bool:
+        return any(h.robot == robot for h in self.queue)
+
+    def must_hold(self, active: int) -> bool:
+        """A new goal waits when others already wait (FIFO) or the active robots are at the limit."""
+        return bool(self.queue) or active >= self.limit
+
+    def hold(self, robot: str, x: float, y: float, now: float) -> None:
+        """Queue a goal; a robot has one goal, so a newer one replaces its held one in place."""
+        for h in self.queue:
+            if h.robot == robot:
+                h.x, h.y = x, y
+                return
+        self.queue.append(Held(robot, x, y, now))
+        self.stats["held"] += 1
+
+    def drop(self, robot: str) -> None:
+        """The robot's held goal is withdrawn (task cancelled, robot left the layer)."""
+        self.queue = deque(h for h in self.queue if h.robot != robot)
+
+    def update(self, now: float, active: int, stalled: int) -> None:
+        """AIMD step, once per period: `active` robots have goals, `stalled` of them are in a wait."""
+        if now < self._next:
+            return
+        self._next = now + self.period_s
+        if active > 0 and stalled > self.stalled_share * active:
+            if active > self.limit or now < self._cut + self.cooldown_s:
+                return  # the last decrease has not taken effect yet (robots drain as they arrive): hold it
+            self._cut = now
+            self.limit = max(1.0, math.floor(self.decrease * min(self.limit, active)))
+            self.stats["decreases"] += 1
+            self.stats["lowest_limit"] = min(self.stats["lowest_limit"], self.limit)
+        elif active >= self.limit - 1 or self.queue:
+            self.limit += self.grow
+        elif not self.queue:
+            self.limit = math.inf  # not binding and nobody waiting: no limit
+
+    def admit(self, active: int, now: float) -> list[Held]:
+        """The held goals to start now, oldest first, so that active robots stay within the limit."""
+        out: list[Held] = []
+        while self.queue and active + len(out) < self.limit:
+            h = self.queue.popleft()
+            self.stats["longest_hold_s"] = max(self.stats["longest_hold_s"], now - h.since)
+            out.append(h)
+        self.stats["admitted"] += len(out)
+        return out

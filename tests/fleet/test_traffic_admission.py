@@ -1,0 +1,107 @@
+"""Dispatch admission (fleet/traffic/admission.py): the AIMD limit and the FIFO of held goals in closed form, and
+on the corridor world (8 robots swap rooms through a one-lane corridor, test_traffic_corridor.py) with at most 2
+robots admitted: the limit is never exceeded, held goals start in the order they were given, and the robots held
+idle in the rooms never block the ones PIBT drives through them (every swap completes, no overlap)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fleet import FleetConfig, FleetService
+from fleet.traffic import enable_traffic
+from fleet.traffic.admission import Admission, Held
+from sim import Pose2D
+from tests.fleet.test_traffic_corridor import LEFT, corridor_world
+
+
+def test_admit_never_exceeds_the_limit_and_keeps_fifo_order() -> None:
+    adm = Admission(limit=3)
+    assert not adm.must_hold(2) and adm.must_hold(3)
+    for k in range(5):
+        adm.hold(f"r{k}", float(k), 0.0, now=float(k))
+    assert adm.must_hold(0)  # others wait already: a new goal queues behind them
+    adm.hold("r1", 9.0, 9.0, now=7.0)  # a newer goal replaces the held one in place
+    assert [h.robot for h in adm.admit(active=2, now=10.0)] == ["r0"]
+    assert adm.admit(active=3, now=10.0) == []
+    out = adm.admit(active=0, now=12.0)
+    assert [h.robot for h in out] == ["r1", "r2", "r3"] and (out[0].x, out[0].since) == (9.0, 1.0)
+    assert adm.stats["longest_hold_s"] == 11.0 and adm.stats["admitted"] == 4
+    adm.drop("r4")
+    assert not adm.queue and not adm.held("r4")
+
+
+def test_aimd_limit_in_closed_form() -> None:
+    adm = Admission(period_s=2.0, stalled_share=0.1, decrease=0.7, grow=1, cooldown_s=10.0)
+    adm.update(0.0, active=100, stalled=10)  # 10 % is not above the share: no limit while nothing binds
+    assert adm.limit == math.inf
+    adm.update(1.0, active=100, stalled=50)  # within the period: no step
+    assert adm.limit == math.inf
+    adm.update(2.0, active=100, stalled=11)
+    assert adm.limit == 70  # floor(0.7 · min(inf, 100))
+    adm.update(4.0, active=90, stalled=80)  # the cut has not drained yet: held, not cut again
+    assert adm.limit == 70
+    adm.update(6.0, active=70, stalled=20)  # drained, but within the cool-down (the signal lags): not yet
+    assert adm.limit == 70
+    adm.update(12.0, active=70, stalled=20)
+    assert adm.limit == 49
+    adm.queue.append(Held("r", 0.0, 0.0, 6.0))
+    adm.update(14.0, active=49, stalled=0)
+    adm.update(16.0, active=50, stalled=0)
+    assert adm.limit == 51  # additive increase while it binds
+    adm.queue.clear()
+    adm.update(20.0, active=20, stalled=0)
+    assert adm.limit == math.inf  # not binding, nobody held: lifted
+    assert adm.stats["decreases"] == 2 and adm.stats["lowest_limit"] == 49
+
+
+@pytest.fixture(scope="module")
+def tmp(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("admission")
+
+
+def test_held_robots_idle_in_the_rooms_never_block_the_admitted_ones(tmp: Path) -> None:
+    with FleetService(FleetConfig(world=str(corridor_world(tmp)), seed=0, physics_hz=20.0, control_hz=10.0)) as svc:
+        starts = LEFT + [(-x, y) for x, y in LEFT]
+        for k, (x, y) in enumerate(starts):
+            svc.spawn_robot(f"r{k}", Pose2D(x, y, 0.0))
+        tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0, admission="aimd")
+        adm = tm.admission
+        assert adm is not None
+        adm.limit, adm.period_s = 2, math.inf  # a fixed limit: the AIMD step is tested above
+        adm._next = math.inf
+        admitted: list[str] = []
+        admit = adm.admit
+        adm.admit = lambda active, now: [admitted.append(h.robot) or h for h in admit(active, now)]  # type: ignore[method-assign, func-returns-value]
+
+        def go_all() -> None:
+            for k, (x, y) in enumerate(starts):
+                tm.add(f"r{k}")
+                tm.go(f"r{k}", -x, y)  # to the mirror cell in the other room, occupied by a held robot
+
+        svc.call(go_all)
+        assert [tm.held(f"r{k}") for k in range(8)] == [False] * 2 + [True] * 6
+        most, worst = [0], [np.inf]
+
+        def check() -> None:
+            most[0] = max(most[0], int(np.count_nonzero(tm.pending)))
+            f = svc.world.table.f
+            xy = np.column_stack([f["x"], f["y"]])
+            d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
+            d[np.diag_indices(len(xy))] = np.inf
+            worst[0] = min(worst[0], float(d.min()) - 2 * tm.radius)
+
+        svc.step_listeners.append(check)
+        t = 0.0
+        while t < 600.0 and (tm.stats["reached"] < 8 or tm.active_count() or adm.queue):
+            svc.advance(5.0)
+            t += 5.0
+        assert most[0] <= 2  # the limit
+        assert admitted == [f"r{k}" for k in range(2, 8)]  # FIFO: in the order the goals were given
+        assert tm.stats["reached"] >= 8 and not adm.queue, tm.describe()
+        xy = np.array([[svc.world.robot_pose(f"r{k}").x, svc.world.robot_pose(f"r{k}").y] for k in range(8)])
+        assert np.allclose(xy, [(-x, y) for x, y in starts], atol=0.15)  # every robot at its mirror cell
+        assert worst[0] > 0.0

@@ -35,14 +35,15 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from fleet.traffic.admission import ADMISSION, Admission
+from fleet.traffic.admission import Admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
 from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
+from fleet.traffic.settings import check_settings
 from fleet.traffic.withdraw import flush, free_ahead
-from sim.errors import ErrorCode, FleetError, unknown_name
+from sim.errors import ErrorCode, FleetError
 from sim.transforms import wrap_angles
 
 if TYPE_CHECKING:
@@ -50,9 +51,6 @@ if TYPE_CHECKING:
 
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
-PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
-URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (see _plan)
-WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdrawn (withdraw.py)
 START_DENSITY = 0.125  # admission: robots with goals per free cell before any congestion is seen (admission.py)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
@@ -74,49 +72,26 @@ class TrafficManager:
         spec = service.default_spec()
         self.radius = spec.footprint_radius
         self.gap = 2 * self.radius + GAP_MARGIN
-        if self.gap > cell:
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
-                             f"radius {self.radius:.3f} m", f"use cell ≥ {self.gap:.2f} m")
-        if priority not in PRIORITIES:
-            raise unknown_name("traffic priority", priority, list(PRIORITIES), ErrorCode.INVALID_ARGUMENT)
-        self.priority = priority
-        if window < 1:
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic window must be ≥ 1 step, got {window}")
+        check_settings(cell=cell, gap=self.gap, radius=self.radius, priority=priority, window=window,
+                       urgent_s=urgent_s, urgent_rank=urgent_rank, highway=highway, congestion=congestion,
+                       withdraw=withdraw, flush_s=flush_s, admission=admission)
+        self.priority, self.window, self.stall_s = priority, window, stall_s
+        self.urgent_s, self.urgent_rank = urgent_s, urgent_rank
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
+        self.pibt.yield_aside, self.pibt.push_frozen = yield_aside, push_frozen
         self.sched = Schedule(len(self.grid), record)
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
         self.peak = speed / cell  # cells/s
         self.max_w = min(2.0, spec.limits.max_angular)
-        self.stall_s = stall_s
-        if urgent_s is not None and not (math.isfinite(urgent_s) and urgent_s > 0):
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_s must be > 0 s (or None: off), got "
-                             f"{urgent_s}")
-        self.urgent_s = urgent_s
-        if urgent_rank not in URGENT_RANKS:
-            raise unknown_name("traffic urgent_rank", urgent_rank, list(URGENT_RANKS), ErrorCode.INVALID_ARGUMENT)
-        self.urgent_rank = urgent_rank
-        if not (math.isfinite(highway) and highway >= 1.0):
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic highway must be ≥ 1 (1: no lanes), got {highway}")
-        self.pibt.yield_aside = yield_aside
-        if not (math.isfinite(congestion) and congestion >= 0.0):
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic congestion must be ≥ 0 (0: off), got {congestion}")
         # Congestion-aware routing (congestion.py): PIBT ranks a robot's next cells by fields with a toll on busy
         # cells; the waits reported keep the static fields.
         self.congestion = CongestionFields(self.grid.adjacency, congestion) if congestion > 0 else None
         if self.congestion is not None:
             self.pibt.field = self.congestion.to
-        self.pibt.push_frozen = push_frozen
-        self.window = window
-        if withdraw not in WITHDRAW:
-            raise unknown_name("traffic withdraw", withdraw, list(WITHDRAW), ErrorCode.INVALID_ARGUMENT)
-        if not (math.isfinite(flush_s) and flush_s > 0):
-            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic flush_s must be > 0 s, got {flush_s}")
-        self.flush_s, self._flush_at = flush_s, 0.0
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
-        if admission not in ADMISSION:
-            raise unknown_name("traffic admission", admission, list(ADMISSION), ErrorCode.INVALID_ARGUMENT)
+        self.flush_s, self._flush_at = flush_s, 0.0
         # new goals held while congested (admission.py); the limit starts at START_DENSITY robots per free cell
         self.admission = Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * len(self.grid))) \
             if admission != "off" else None

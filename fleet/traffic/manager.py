@@ -14,8 +14,8 @@ leaving that cell, by ground truth (motion.py); a straight run continues through
 stopping when the next cell is already claimed. No fleet-wide barrier: a robot waits only for the robots
 whose cells it needs, so slow or delayed robots hold up only those behind them.
 
-Waits: a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it and the
-robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
+Waits (stalls.py): a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it
+and the robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
 it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
 edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
 oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
@@ -42,6 +42,7 @@ from fleet.traffic.motion import advance, leader_cap
 from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
+from fleet.traffic.stalls import close_stall, open_stalls
 from fleet.traffic.withdraw import flush, free_ahead
 from sim.errors import ErrorCode, FleetError
 from sim.transforms import wrap_angles
@@ -285,7 +286,7 @@ class TrafficManager:
         want = (sched.head_step >= BIG) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)
-        self._stalls(now)
+        open_stalls(self, now)
         return dict(zip(self.names, zip(v.tolist(), w.tolist(), strict=True), strict=True))
 
     def _admit(self, now: float) -> None:
@@ -380,17 +381,7 @@ class TrafficManager:
         d = float(self.grid.fields.to(int(self.goal[i]))[self.a[i]])
         if d < self.best[i] or d == 0:
             self.best[i], self.best_at[i] = d, now
-            if name in self.open_stalls:
-                start, others, why = self.open_stalls.pop(name)
-                took = now - start + self.stall_s
-                if math.isfinite(self.urgent_at[i]):
-                    why += (f"; urgent (top priority, aging) since it had waited {self.urgent_s:g} s, "
-                            f"{now - self.urgent_at[i]:.1f} s ago")
-                self.stats["resolved"] += 1
-                self.stats["longest_deadlock_s"] = max(self.stats["longest_deadlock_s"], took)
-                self.service.events.publish(
-                    now, "deadlock_resolved", (name, *others), f"{name} moving towards its goal again after "
-                    f"{took:.1f} s: {why}", strategy="adg_pibt", duration=took)
+            close_stall(self, i, now)
         if self.pending[i] and self.a[i] == self.goal[i]:  # there, even if the plan moves it on (pushed)
             self.pending[i] = False
             self.urgent_at[i] = math.inf
@@ -429,35 +420,6 @@ class TrafficManager:
             order = self.best_at if self.urgent_rank == "since_progress" else self.urgent_at
             priority = np.where(urgent, URGENT + (now - order), priority)
         return priority
-
-    def _stalls(self, now: float) -> None:
-        """Deadlock events: robots whose distance to goal has not improved for stall_s, and who they wait for."""
-        stuck = self.pending & (now - self.best_at >= self.stall_s)
-        if not stuck.any():
-            return
-        for i in np.flatnonzero(stuck).tolist():
-            name = self.names[i]
-            if name in self.open_stalls:
-                continue
-            blockers = self.sched.blockers(i)
-            if blockers:
-                why = (f"waited in the action-dependency graph for {', '.join(self.names[k] for k in blockers)} "
-                       "to clear its next cell (acyclic: each of them moves on without waiting for it)")
-            else:
-                field = self.grid.fields.to(int(self.goal[i]))
-                here = int(self.sched.tail[i])
-                ahead = [v for v in self.grid.neighbours[here] if field[v] < field[here]]
-                blockers = sorted({int(k) for k in self.sched.at[ahead].tolist() if k >= 0 and k != i}) if ahead \
-                    else []
-                why = ("its priority grew until PIBT's priority inheritance pushed "
-                       f"{', '.join(self.names[k] for k in blockers) or 'the robots ahead'} aside")
-            others = [self.names[k] for k in blockers]
-            self.open_stalls[name] = (now, others, why)
-            self.stats["deadlocks"] += 1
-            self.service.events.publish(
-                now, "deadlock", (name, *others), f"{name} has not come closer to its goal for {self.stall_s:g} s; "
-                f"waiting for {', '.join(others) or 'its turn'}; resolution: the schedule is acyclic and its "
-                "priority grows, so PIBT and the ADG free it", strategy="adg_pibt")
 
     def describe(self) -> dict[str, Any]:
         return {"robots": len(self.names), "cells": len(self.grid), "cell_m": self.grid.cell,

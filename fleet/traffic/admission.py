@@ -83,7 +83,7 @@ class Admission:
             self.stats["lowest_limit"] = min(self.stats["lowest_limit"], self.limit)
         elif active >= self.limit - 1 or self.queue:
             self.limit += self.grow
-        elif not self.queue:
+        else:
             self.limit = math.inf  # not binding and nobody waiting: no limit
 
     def admit(self, active: int, now: float) -> list[Held]:

@@ -36,11 +36,16 @@ class MatchGrid:
         wk = np.exp(-0.5 * (dx ** 2 + dy ** 2) * (res / sigma) ** 2)
         inside = (dx ** 2 + dy ** 2) * res ** 2 <= (4.0 * sigma) ** 2
         order = np.argsort(wk[inside])
-        field = np.zeros((h + 2 * r, w + 2 * r), dtype=np.float32)
+        # stamp in place when the kernel cannot leave the grid (the usual margin), else on a padded copy
+        pad = 0 if (c.min() >= r and int(c[:, 0].max()) + r < w and int(c[:, 1].max()) + r < h) else r
+        field = np.zeros((h + 2 * pad, w + 2 * pad), dtype=np.float32)
+        flat = (c[:, 1] + pad) * (w + 2 * pad) + (c[:, 0] + pad)
+        out = field.ravel()
         for ox, oy, val in zip(dx[inside][order].tolist(), dy[inside][order].tolist(),
                                wk[inside][order].tolist(), strict=True):
-            field[c[:, 1] + r + oy, c[:, 0] + r + ox] = val
-        field = np.ascontiguousarray(field[r:r + h, r:r + w])
+            out[flat + (oy * (w + 2 * pad) + ox)] = val
+        if pad:
+            field = np.ascontiguousarray(field[pad:pad + h, pad:pad + w])
         self._levels = [_zero_border(field)]
         # cells on every side of level 0 that are zero whatever the points (margin minus the kernel radius)
         self.zero_margin = max(0, math.floor(margin / res) - r - 2)

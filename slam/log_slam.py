@@ -23,6 +23,7 @@ from planning.grid import OccupancyGrid
 from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
+from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, decide
@@ -68,6 +69,7 @@ class FrontEndStats:
 class LogSlam:
     def __init__(self, config: LogSlamConfig | None = None, initial_pose: Pose2D | None = None) -> None:
         self.config = cfg = config or LogSlamConfig()
+        retain_freed_memory()  # per-scan grids reuse heap pages instead of faulting new ones (slam.alloc)
         self.graph = PoseGraph(prior_sigmas=(1e-3, 1e-3, 1e-4))
         self.poses: list[se2.PoseTuple] = []
         self.points: list[np.ndarray] = []  # thinned returns per node, base frame

@@ -17,6 +17,9 @@ import numpy as np
 
 from slam import se2
 
+_TOP_CHUNK = 32  # rotations scored at once on the top level (an index block that stays in cache)
+_CHILD_CHUNK = 2048  # blocks scored at once below it
+
 
 class MatchGrid:
     def __init__(self, points: np.ndarray, resolution: float = 0.05, sigma: float = 0.07,
@@ -36,11 +39,16 @@ class MatchGrid:
         wk = np.exp(-0.5 * (dx ** 2 + dy ** 2) * (res / sigma) ** 2)
         inside = (dx ** 2 + dy ** 2) * res ** 2 <= (4.0 * sigma) ** 2
         order = np.argsort(wk[inside])
-        field = np.zeros((h + 2 * r, w + 2 * r), dtype=np.float32)
+        # stamp in place when the kernel cannot leave the grid (the usual margin), else on a padded copy
+        pad = 0 if (c.min() >= r and int(c[:, 0].max()) + r < w and int(c[:, 1].max()) + r < h) else r
+        field = np.zeros((h + 2 * pad, w + 2 * pad), dtype=np.float32)
+        flat = (c[:, 1] + pad) * (w + 2 * pad) + (c[:, 0] + pad)
+        out = field.ravel()
         for ox, oy, val in zip(dx[inside][order].tolist(), dy[inside][order].tolist(),
                                wk[inside][order].tolist(), strict=True):
-            field[c[:, 1] + r + oy, c[:, 0] + r + ox] = val
-        field = np.ascontiguousarray(field[r:r + h, r:r + w])
+            out[flat + (oy * (w + 2 * pad) + ox)] = val
+        if pad:
+            field = np.ascontiguousarray(field[pad:pad + h, pad:pad + w])
         self._levels = [_zero_border(field)]
         # cells on every side of level 0 that are zero whatever the points (margin minus the kernel radius)
         self.zero_margin = max(0, math.floor(margin / res) - r - 2)
@@ -54,11 +62,15 @@ class MatchGrid:
         while len(self._levels) <= h:
             prev = self._levels[-1]
             s = 1 << (len(self._levels) - 1)
-            nxt = np.empty_like(prev)  # max with the block s columns on, then s rows on (no full copies)
-            np.maximum(prev[:, :-s], prev[:, s:], out=nxt[:, :-s])
+            # max with the block s columns on, then s rows on. Both as one pass over the flat arrays (3× faster
+            # than strided 2-D views); a cell of the last s columns, which met the next row's first cells there,
+            # is then set back to its own value, as is each of the last s rows.
+            w = prev.shape[1]
+            nxt = np.empty(prev.shape, prev.dtype)  # C order: ravel() below is a view
+            np.maximum(prev.ravel()[:-s], prev.ravel()[s:], out=nxt.ravel()[:-s])
             nxt[:, -s:] = prev[:, -s:]
-            nxt2 = np.empty_like(nxt)
-            np.maximum(nxt[:-s, :], nxt[s:, :], out=nxt2[:-s, :])
+            nxt2 = np.empty(prev.shape, prev.dtype)
+            np.maximum(nxt.ravel()[:-s * w], nxt.ravel()[s * w:], out=nxt2.ravel()[:-s * w])
             nxt2[-s:, :] = nxt[-s:, :]
             self._levels.append(_zero_border(nxt2))
         return self._levels[h]
@@ -132,7 +144,9 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
     c, s = np.cos(angles), np.sin(angles)
     rx = c[:, None] * pts[None, :, 0] - s[:, None] * pts[None, :, 1] + guess[0]
     ry = s[:, None] * pts[None, :, 0] + c[:, None] * pts[None, :, 1] + guess[1]
-    base = (grid.cells(np.stack([rx, ry], axis=-1)) - nw).astype(np.int32)  # (A, n, 2); int32 halves traffic
+    # (A, n) each, as grid.cells computes them; int32 halves traffic
+    bx = np.floor((rx - grid.origin[0]) / res).astype(np.int32) - np.int32(nw)
+    by = np.floor((ry - grid.origin[1]) / res).astype(np.int32) - np.int32(nw)
     n = len(pts)
     size = 2 * nw + 1
     block = 1 << depth
@@ -146,15 +160,17 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
     # one flat index per point and rotation then replaces the per-axis clamping (same scores, ~2× faster).
     flat: np.ndarray | None = None
     if grid.zero_margin - block + 1 >= size and hh * ww < 2 ** 31:
-        bx, by = base[..., 0], base[..., 1]
         inside = (bx >= 0) & (by >= 0) & (bx + size <= ww) & (by + size <= hh)
         flat = np.where(inside, by * ww + bx, 0).astype(np.int32)  # (A, n)
     # top level: every rotation × every block, vectorised
     if flat is not None:
-        sc = np.take(top.ravel(), flat[:, None, :] + (oy * ww + ox)[None, :, None]).sum(-1) / n
+        sums = np.empty((len(angles), len(ox)), dtype=top.dtype)
+        off = (oy * ww + ox)[None, :, None]
+        for i in range(0, len(angles), _TOP_CHUNK):  # a few rotations at a time: the index block stays in cache
+            sums[i:i + _TOP_CHUNK] = np.take(top.ravel(), flat[i:i + _TOP_CHUNK, None, :] + off).sum(-1)
+        sc = sums / n
     else:
-        sc = _lookup(top, base[:, None, :, 0] + ox[None, :, None],
-                     base[:, None, :, 1] + oy[None, :, None]).sum(-1) / n
+        sc = _lookup(top, bx[:, None, :] + ox[None, :, None], by[:, None, :] + oy[None, :, None]).sum(-1) / n
     sc = sc - _penalty(ox, oy, block, nw, res, prior_weight_xy)[None, :]
     sc = sc - (prior_weight_yaw * (angles - guess[2]) ** 2)[:, None]
     yaw_pen = prior_weight_yaw * (angles - guess[2]) ** 2
@@ -173,13 +189,13 @@ def search(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, *, window_
         a, x, y = a[keep], x[keep], y[keep]
         lv = grid.level(h - 1)
         v = np.empty(len(a))
-        for k in range(0, len(a), 8192):  # chunks bound the (blocks × points) working set
+        ch = _CHILD_CHUNK
+        for k in range(0, len(a), ch):  # chunks bound the (blocks × points) working set
             if flat is not None:
-                off = y[k:k + 8192] * ww + x[k:k + 8192]
-                v[k:k + 8192] = np.take(lv.ravel(), flat[a[k:k + 8192]] + off[:, None]).sum(-1)
+                off = y[k:k + ch] * ww + x[k:k + ch]
+                v[k:k + ch] = np.take(lv.ravel(), flat[a[k:k + ch]] + off[:, None]).sum(-1)
                 continue
-            b = base[a[k:k + 8192]]
-            v[k:k + 8192] = _lookup(lv, b[:, :, 0] + x[k:k + 8192, None], b[:, :, 1] + y[k:k + 8192, None]).sum(-1)
+            v[k:k + ch] = _lookup(lv, bx[a[k:k + ch]] + x[k:k + ch, None], by[a[k:k + ch]] + y[k:k + ch, None]).sum(-1)
         return a, x, y, v / n - _penalty(x, y, half, nw, res, prior_weight_xy) - yaw_pen[a]
 
     # Greedy descent from the best top block gives a reachable leaf: its score is a lower bound that prunes.

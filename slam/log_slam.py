@@ -23,6 +23,7 @@ from planning.grid import OccupancyGrid
 from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
+from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, decide
@@ -68,6 +69,7 @@ class FrontEndStats:
 class LogSlam:
     def __init__(self, config: LogSlamConfig | None = None, initial_pose: Pose2D | None = None) -> None:
         self.config = cfg = config or LogSlamConfig()
+        retain_freed_memory()  # per-scan grids reuse heap pages instead of faulting new ones (slam.alloc)
         self.graph = PoseGraph(prior_sigmas=(1e-3, 1e-3, 1e-4))
         self.poses: list[se2.PoseTuple] = []
         self.points: list[np.ndarray] = []  # thinned returns per node, base frame
@@ -82,6 +84,7 @@ class LogSlam:
         self._local_at = -1  # node index the local map was last built at
         self._local_pose: se2.PoseTuple = (0.0, 0.0, 0.0)
         self._local_filled = False
+        self._filled: dict[int, np.ndarray] = {}  # node → its filled returns, while in the local map window
         self._evidence = HitMissGrid(cfg.frontend.resolution)
         self._following: list[LidarScan] = []
         self._local_pts = np.zeros((0, 2))  # the match grid's points (world frame), for look-ahead maps
@@ -308,15 +311,25 @@ class LogSlam:
             pts = seen if len(seen) >= 10 else pts
         grid_pts = pts
         if fill:
-            mp = self.config.motion_prior
-            grid_pts = thin(np.vstack([pts] + [se2.transform_points(self.poses[k], fill_surfaces(
-                self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)) for k in idx]), fe.resolution / 2)
+            grid_pts = thin(np.vstack([pts] + [se2.transform_points(self.poses[k], self._filled_points(int(k), idx))
+                                               for k in idx]), fe.resolution / 2)
         margin = 1.5 + 2 * fe.wide_window_xy if fill else 1.0  # wide: a zero margin the window fits in (csm)
         self._local_pts, self._local_idx = grid_pts, idx
         self._local = (MatchGrid(grid_pts, fe.resolution, fe.sigma, margin=margin), IcpTarget.from_points(pts))
         self._local_at, self._local_pose, self._local_filled = n - 1, last, fill
         self.stats.local_map_builds += 1
         return self._local
+
+    def _filled_points(self, k: int, window: np.ndarray) -> np.ndarray:
+        """Node k's returns with their same-surface gaps filled (base frame; `slam.surface_fill`), kept while k
+        is in the local map's window: a node's returns never change, and it stays in ~30 windows."""
+        if k not in self._filled:
+            if len(self._filled) > 4 * len(window):  # drop the nodes that left the window
+                keep = set(window.tolist())
+                self._filled = {j: v for j, v in self._filled.items() if j in keep}
+            fe, mp = self.config.frontend, self.config.motion_prior
+            self._filled[k] = fill_surfaces(self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)
+        return self._filled[k]
 
     def invalidate_local_map(self) -> None:
         self._local_at = -1

@@ -38,8 +38,14 @@ class MatchCovarianceConfig(StrictModel):
 def surface_scores(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, offsets: np.ndarray) -> np.ndarray:
     """Mean field value of `points` (sensor frame) at `pose` shifted by each (dx, dy) in `offsets` (world)."""
     w = se2.transform_points(pose, np.asarray(points, dtype=np.float64).reshape(-1, 2))
-    c = np.floor((w[None, :, :] + offsets[:, None, :] - grid.origin) / grid.resolution).astype(np.int64)
-    return _lookup(grid.field, c[..., 0], c[..., 1]).mean(axis=1)
+    # per axis, the same arithmetic as grid.cells on the (k, n, 2) stack; int32 cells take _lookup's fast path
+    cx = np.floor((w[None, :, 0] + offsets[:, 0, None] - grid.origin[0]) / grid.resolution)
+    cy = np.floor((w[None, :, 1] + offsets[:, 1, None] - grid.origin[1]) / grid.resolution)
+    if max(np.abs(cx).max(initial=0.0), np.abs(cy).max(initial=0.0)) < 2 ** 30:
+        cx, cy = cx.astype(np.int32), cy.astype(np.int32)
+    else:
+        cx, cy = cx.astype(np.int64), cy.astype(np.int64)
+    return _lookup(grid.field, cx, cy).mean(axis=1)
 
 
 def _moment(offsets: np.ndarray, scores: np.ndarray, delta: float) -> np.ndarray:

@@ -20,7 +20,7 @@ import math
 from collections import deque
 from dataclasses import dataclass, field
 
-ADMISSION = ("off", "aimd")
+ADMISSION = ("off", "aimd", "park")  # park: aimd, and held robots wait on parking cells (parking.py)
 
 
 @dataclass

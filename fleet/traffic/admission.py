@@ -42,10 +42,12 @@ class Admission:
     decrease: float = 0.7
     grow: int = 1
     cooldown_s: float = 10.0  # no second decrease sooner: the stall signal lags by the layer's stall_s
+    grow_s: float = 0.0  # no increase sooner after the last one (park: one robot per signal lag, as TCP per RTT)
     limit: float = math.inf
     queue: deque[Held] = field(default_factory=deque)
     _next: float = 0.0
     _cut: float = -math.inf
+    _grown: float = -math.inf
     stats: dict[str, float] = field(default_factory=lambda: {"held": 0, "admitted": 0, "decreases": 0,
                                                               "lowest_limit": math.inf, "longest_hold_s": 0.0})
 
@@ -82,7 +84,9 @@ class Admission:
             self.stats["decreases"] += 1
             self.stats["lowest_limit"] = min(self.stats["lowest_limit"], self.limit)
         elif active >= self.limit - 1 or self.queue:
-            self.limit += self.grow
+            if now >= self._grown + self.grow_s:
+                self._grown = now
+                self.limit += self.grow
         else:
             self.limit = math.inf  # not binding and nobody waiting: no limit
 

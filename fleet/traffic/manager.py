@@ -99,7 +99,8 @@ class TrafficManager:
         self.flush_s, self._flush_at = flush_s, 0.0
         # new goals held while congested (admission.py); the limit starts at START_DENSITY robots per free cell
         self.admission = Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * len(self.grid)),
-                                   stalled_share=PARK_SHARE if admission == "park" else STALLED_SHARE) \
+                                   stalled_share=PARK_SHARE if admission == "park" else STALLED_SHARE,
+                                   grow_s=stall_s if admission == "park" else 0.0) \
             if admission != "off" else None
         self.parking = Parking(self.grid) if admission == "park" else None  # held robots wait off the main flow
         self.names: list[str] = []

@@ -11,7 +11,11 @@ Above it the limit drops to `decrease` × min(limit, active) (multiplicative dec
 while more robots are active than the last decrease allows, nor within `cooldown_s` (the signal lags by
 `stall_s`). Otherwise, while the limit binds, it grows by `grow` robots per period (additive increase); while it
 does not bind and nothing is held, it is lifted, so a layer that never congests never holds a goal. Before any
-congestion is seen, the layer starts it at 1/8 of its free cells (manager.py START_DENSITY).
+congestion is seen, the layer starts it at 1/8 of its free cells (START_DENSITY).
+
+`park` (parking.py): held robots wait on parking cells off the main flow instead of where they stand. Parked
+robots barely obstruct, so a lower limit costs little: the limit is cut at 5 % of the active robots in a wait
+(not 20 %), and grows by one robot per `stall_s` (the signal's lag, as TCP's window grows once per round trip).
 """
 
 from __future__ import annotations
@@ -21,6 +25,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 ADMISSION = ("off", "aimd", "park")  # park: aimd, and held robots wait on parking cells (parking.py)
+START_DENSITY = 0.125  # robots with goals per free cell before any congestion is seen
+STALLED_SHARE = {"aimd": 0.2, "park": 0.05}  # share of the robots with goals in a wait above which the limit is cut
 
 
 @dataclass
@@ -99,3 +105,11 @@ class Admission:
             out.append(h)
         self.stats["admitted"] += len(out)
         return out
+
+
+def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
+    """The traffic layer's admission for its `admission` setting (module doc), None when off."""
+    if mode == "off":
+        return None
+    return Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * cells), stalled_share=STALLED_SHARE[mode],
+                     grow_s=stall_s if mode == "park" else 0.0)

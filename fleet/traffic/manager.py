@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from fleet.traffic.admission import Admission
+from fleet.traffic.admission import layer_admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
@@ -54,9 +54,6 @@ if TYPE_CHECKING:
 
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
-START_DENSITY = 0.125  # admission: robots with goals per free cell before any congestion is seen (admission.py)
-STALLED_SHARE = 0.2  # admission: share of the robots with goals in a wait above which the limit is cut
-PARK_SHARE = 0.05  # the same with parking: parked robots barely obstruct, so a lower limit costs little (parking.py)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -97,11 +94,7 @@ class TrafficManager:
             self.pibt.field = self.congestion.to
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         self.flush_s, self._flush_at = flush_s, 0.0
-        # new goals held while congested (admission.py); the limit starts at START_DENSITY robots per free cell
-        self.admission = Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * len(self.grid)),
-                                   stalled_share=PARK_SHARE if admission == "park" else STALLED_SHARE,
-                                   grow_s=stall_s if admission == "park" else 0.0) \
-            if admission != "off" else None
+        self.admission = layer_admission(admission, stall_s, len(self.grid))  # new goals held while congested
         self.parking = Parking(self.grid) if admission == "park" else None  # held robots wait off the main flow
         self.names: list[str] = []
         self._idx: dict[str, int] = {}

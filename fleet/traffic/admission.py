@@ -16,6 +16,9 @@ congestion is seen, the layer starts it at 1/8 of its free cells (START_DENSITY)
 `park` (parking.py): held robots wait on parking cells off the main flow instead of where they stand. Parked
 robots barely obstruct, so a lower limit costs little: the limit is cut at 5 % of the active robots in a wait
 (not 20 %), and grows by one robot per `stall_s` (the signal's lag, as TCP's window grows once per round trip).
+So low a share is crossed by the passing waits of a fleet that flows (6 of 100 robots on the warehouse), so `park`
+never cuts while nothing is held and the active robots are within the start limit (`free_below`): a fleet below
+the start density is never limited (docs/benchmarks-fleet.md, helper 17i: cutting 100 robots cost 7 % of tasks).
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ class Admission:
     grow: int = 1
     cooldown_s: float = 10.0  # no second decrease sooner: the stall signal lags by the layer's stall_s
     grow_s: float = 0.0  # no increase sooner after the last one (park: one robot per signal lag, as TCP per RTT)
+    free_below: float = 0.0  # no decrease while nothing is held and at most this many robots are active (park)
     limit: float = math.inf
     queue: deque[Held] = field(default_factory=deque)
     _next: float = 0.0
@@ -82,7 +86,7 @@ class Admission:
         if now < self._next:
             return
         self._next = now + self.period_s
-        if active > 0 and stalled > self.stalled_share * active:
+        if active > 0 and stalled > self.stalled_share * active and (self.queue or active > self.free_below):
             if active > self.limit or now < self._cut + self.cooldown_s:
                 return  # the last decrease has not taken effect yet (robots drain as they arrive): hold it
             self._cut = now
@@ -111,5 +115,7 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     """The traffic layer's admission for its `admission` setting (module doc), None when off."""
     if mode == "off":
         return None
-    return Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * cells), stalled_share=STALLED_SHARE[mode],
-                     grow_s=stall_s if mode == "park" else 0.0)
+    start = max(1.0, START_DENSITY * cells)
+    park = mode == "park"
+    return Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
+                     grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)

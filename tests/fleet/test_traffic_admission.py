@@ -59,7 +59,11 @@ def test_aimd_limit_in_closed_form() -> None:
 
 
 def test_park_grows_by_one_robot_per_signal_lag() -> None:
-    adm = Admission(period_s=2.0, stalled_share=0.05, grow_s=10.0, limit=60)
+    for free_below, after in ((0.0, 42), (60.0, 61)):  # half of 60 stalled, nothing held
+        a = Admission(stalled_share=0.05, limit=60, free_below=free_below)
+        a.update(0.0, active=60, stalled=30)
+        assert a.limit == after  # cut to 0.7 · 60; within free_below never cut (it binds: + 1)
+    adm = Admission(period_s=2.0, stalled_share=0.05, grow_s=10.0, limit=60, free_below=60)
     adm.queue.append(Held("r", 0.0, 0.0, 0.0))
     for now in range(0, 31, 2):  # binds all along (a goal held), nobody stalled
         adm.update(float(now), active=int(adm.limit), stalled=0)

@@ -187,7 +187,7 @@ def main() -> None:
                          "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); default off")
     ap.add_argument("--flush-s", type=float, default=1.0,
                     help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
-    ap.add_argument("--admission", nargs="*", choices=("off", "aimd"), default=["off"],
+    ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park"), default=["off"],
                     help="traffic layer: dispatch admission, one run each: aimd = new goals held (FIFO) while the "
                          "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); default off")
     ap.add_argument("--baseline-minutes", type=float, default=None,

@@ -11,7 +11,14 @@ Above it the limit drops to `decrease` × min(limit, active) (multiplicative dec
 while more robots are active than the last decrease allows, nor within `cooldown_s` (the signal lags by
 `stall_s`). Otherwise, while the limit binds, it grows by `grow` robots per period (additive increase); while it
 does not bind and nothing is held, it is lifted, so a layer that never congests never holds a goal. Before any
-congestion is seen, the layer starts it at 1/8 of its free cells (manager.py START_DENSITY).
+congestion is seen, the layer starts it at 1/8 of its free cells (START_DENSITY).
+
+`park` (parking.py): held robots wait on parking cells off the main flow instead of where they stand. Parked
+robots barely obstruct, so a lower limit costs little: the limit is cut at 5 % of the active robots in a wait
+(not 20 %), and grows by one robot per `stall_s` (the signal's lag, as TCP's window grows once per round trip).
+So low a share is crossed by the passing waits of a fleet that flows (6 of 100 robots on the warehouse), so `park`
+never cuts while nothing is held and the active robots are within the start limit (`free_below`): a fleet below
+the start density is never limited (docs/benchmarks-fleet.md, helper 17i: cutting 100 robots cost 7 % of tasks).
 """
 
 from __future__ import annotations
@@ -20,7 +27,9 @@ import math
 from collections import deque
 from dataclasses import dataclass, field
 
-ADMISSION = ("off", "aimd")
+ADMISSION = ("off", "aimd", "park")  # park: aimd, and held robots wait on parking cells (parking.py)
+START_DENSITY = 0.125  # robots with goals per free cell before any congestion is seen
+STALLED_SHARE = {"aimd": 0.2, "park": 0.05}  # share of the robots with goals in a wait above which the limit is cut
 
 
 @dataclass
@@ -42,10 +51,13 @@ class Admission:
     decrease: float = 0.7
     grow: int = 1
     cooldown_s: float = 10.0  # no second decrease sooner: the stall signal lags by the layer's stall_s
+    grow_s: float = 0.0  # no increase sooner after the last one (park: one robot per signal lag, as TCP per RTT)
+    free_below: float = 0.0  # no decrease while nothing is held and at most this many robots are active (park)
     limit: float = math.inf
     queue: deque[Held] = field(default_factory=deque)
     _next: float = 0.0
     _cut: float = -math.inf
+    _grown: float = -math.inf
     stats: dict[str, float] = field(default_factory=lambda: {"held": 0, "admitted": 0, "decreases": 0,
                                                               "lowest_limit": math.inf, "longest_hold_s": 0.0})
 
@@ -74,7 +86,7 @@ class Admission:
         if now < self._next:
             return
         self._next = now + self.period_s
-        if active > 0 and stalled > self.stalled_share * active:
+        if active > 0 and stalled > self.stalled_share * active and (self.queue or active > self.free_below):
             if active > self.limit or now < self._cut + self.cooldown_s:
                 return  # the last decrease has not taken effect yet (robots drain as they arrive): hold it
             self._cut = now
@@ -82,7 +94,9 @@ class Admission:
             self.stats["decreases"] += 1
             self.stats["lowest_limit"] = min(self.stats["lowest_limit"], self.limit)
         elif active >= self.limit - 1 or self.queue:
-            self.limit += self.grow
+            if now >= self._grown + self.grow_s:
+                self._grown = now
+                self.limit += self.grow
         else:
             self.limit = math.inf  # not binding and nobody waiting: no limit
 
@@ -95,3 +109,13 @@ class Admission:
             out.append(h)
         self.stats["admitted"] += len(out)
         return out
+
+
+def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
+    """The traffic layer's admission for its `admission` setting (module doc), None when off."""
+    if mode == "off":
+        return None
+    start = max(1.0, START_DENSITY * cells)
+    park = mode == "park"
+    return Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
+                     grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)

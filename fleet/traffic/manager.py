@@ -23,7 +23,8 @@ column's direction cost `highway` times more), aging (a robot without progress f
 that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
 yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
 routing (congestion.py), withdrawing planned moves not yet started (`withdraw`, withdraw.py) and dispatch
-admission (`admission`, admission.py: new goals held while the layer is congested).
+admission (`admission`, admission.py: new goals held while the layer is congested; `park`: held robots wait on
+parking cells off the main flow, parking.py).
 """
 
 from __future__ import annotations
@@ -35,10 +36,11 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from fleet.traffic.admission import Admission
+from fleet.traffic.admission import layer_admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import advance, leader_cap
+from fleet.traffic.parking import Parking
 from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
@@ -52,7 +54,6 @@ if TYPE_CHECKING:
 
 TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
-START_DENSITY = 0.125  # admission: robots with goals per free cell before any congestion is seen (admission.py)
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
@@ -68,7 +69,7 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 admission: Literal["off", "aimd"] = "off", record: bool = False) -> None:
+                 admission: Literal["off", "aimd", "park"] = "off", record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -93,9 +94,8 @@ class TrafficManager:
             self.pibt.field = self.congestion.to
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         self.flush_s, self._flush_at = flush_s, 0.0
-        # new goals held while congested (admission.py); the limit starts at START_DENSITY robots per free cell
-        self.admission = Admission(cooldown_s=stall_s, limit=max(1.0, START_DENSITY * len(self.grid))) \
-            if admission != "off" else None
+        self.admission = layer_admission(admission, stall_s, len(self.grid))  # new goals held while congested
+        self.parking = Parking(self.grid) if admission == "park" else None  # held robots wait off the main flow
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
@@ -159,13 +159,18 @@ class TrafficManager:
         adm, i = self.admission, self._idx[robot]
         if adm is not None and (adm.held(robot) or adm.must_hold(int(np.count_nonzero(self.pending)))):
             adm.hold(robot, x, y, self.service.world.time)
-            self.goal[i], self.pending[i] = self.sched.tail[i], False
+            self.goal[i], self.pending[i] = self._idle_goal(i), False
             return node
         return self._set_goal(i, node)
 
     def held(self, robot: str) -> bool:
         """The robot's goal is held by admission (not started yet)."""
         return self.admission is not None and self.admission.held(robot)
+
+    def _idle_goal(self, i: int) -> int:
+        """Where a held robot waits: its parking cell (parking.py), or where it is."""
+        here = int(self.sched.tail[i])
+        return here if self.parking is None else self.parking.assign(self.names[i], self.grid.xy[here], here)
 
     def _goal_node(self, robot: str, x: float, y: float) -> int:
         i = self._idx[robot]
@@ -215,6 +220,8 @@ class TrafficManager:
         self.pending[:] = False
         if self.admission is not None:
             self.admission.queue.clear()
+        if self.parking is not None:
+            self.parking.clear()
 
     def release(self, robot: str, reason: str) -> None:
         """A robot leaves the layer only at rest with nothing scheduled (others' safety and order depend on it)."""
@@ -223,6 +230,8 @@ class TrafficManager:
             return
         if self.admission is not None:
             self.admission.drop(robot)
+        if self.parking is not None:
+            self.parking.release(robot)
         self.sched.remove(i, int(self.a[i]))
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
@@ -299,6 +308,8 @@ class TrafficManager:
         adm.update(now, active, int(np.count_nonzero(self.pending & (now - self.best_at >= self.stall_s))))
         for h in adm.admit(active, now):
             i = self._idx[h.robot]
+            if self.parking is not None:
+                self.parking.release(h.robot)
             self._set_goal(i, self._goal_node(h.robot, h.x, h.y))
             if not self.pending[i]:  # pushed onto its goal cell while held: already there
                 self.stats["reached"] += 1
@@ -306,7 +317,7 @@ class TrafficManager:
                     self.on_reached(h.robot, now)
         for h in adm.queue:
             i = self._idx[h.robot]
-            self.goal[i] = self.sched.tail[i]
+            self.goal[i] = self._idle_goal(i)
 
     def _withdraw(self, now: float) -> None:
         here = np.where(self.claim >= 0, self.claim, self.b)
@@ -407,6 +418,9 @@ class TrafficManager:
         """PIBT's priority of every robot now (marks robots that have become urgent)."""
         since = self.best_at if self.priority == "since_progress" else self.since
         priority = (now - since) * (self.goal != self.sched.tail) + self._tie
+        if self.parking is not None and self.admission is not None and self.admission.queue:
+            held = [self._idx[h.robot] for h in self.admission.queue]  # on the way to park: below every goal
+            priority[held] = self._tie[held]
         if self.urgent_s is not None:
             # Aging: a robot that has not come closer for urgent_s outranks every other robot until it reaches
             # its goal (earliest first among the urgent, a fixed order), so two robots cannot take turns

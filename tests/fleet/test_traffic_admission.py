@@ -58,6 +58,20 @@ def test_aimd_limit_in_closed_form() -> None:
     assert adm.stats["decreases"] == 2 and adm.stats["lowest_limit"] == 49
 
 
+def test_park_grows_by_one_robot_per_signal_lag() -> None:
+    for free_below, after in ((0.0, 42), (60.0, 61)):  # half of 60 stalled, nothing held
+        a = Admission(stalled_share=0.05, limit=60, free_below=free_below)
+        a.update(0.0, active=60, stalled=30)
+        assert a.limit == after  # cut to 0.7 · 60; within free_below never cut (it binds: + 1)
+    adm = Admission(period_s=2.0, stalled_share=0.05, grow_s=10.0, limit=60, free_below=60)
+    adm.queue.append(Held("r", 0.0, 0.0, 0.0))
+    for now in range(0, 31, 2):  # binds all along (a goal held), nobody stalled
+        adm.update(float(now), active=int(adm.limit), stalled=0)
+    assert adm.limit == 64  # at t = 0, 10, 20 and 30 only (aimd, grow_s 0: every period, 76)
+    adm.update(32.0, active=64, stalled=4)  # 4 > 5 % of 64: multiplicative decrease as before
+    assert adm.limit == 44
+
+
 @pytest.fixture(scope="module")
 def tmp(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("admission")

@@ -25,7 +25,7 @@ from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.edge_switch import Surface
-from slam.hypotheses import WideSearch, decide
+from slam.hypotheses import WideSearch, decide, escalated
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
@@ -33,7 +33,7 @@ from slam.lookahead import alternatives, choose
 from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
-from slam.motion_prior import at_window_edge, predicted_step
+from slam.motion_prior import predicted_step
 from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
 from slam.see_through import inconsistency
@@ -174,13 +174,14 @@ class LogSlam:
                          window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
                          max_range_for_step=5.0, prior_weight_xy=self.config.motion_prior.weight_xy,
                          prior_weight_yaw=self.config.motion_prior.weight_yaw)
-        if res is None or (wide and at_window_edge(res.pose, guess, fe.wide_window_xy, fe.wide_window_yaw,
-                                                   grid.resolution, math.radians(2))):
+        mp = self.config.motion_prior
+        ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
+        if wide and (res is None or ws.at_edge(res.pose, guess, grid.resolution)):
+            res = escalated(ws, grid, subsample(pts, fe.wide_points), guess, self.config.hypotheses.escalate)
+        if res is None:
             return None, self._odom_cov
         self._surface = None
         if wide and self._following:
-            mp = self.config.motion_prior
-            ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
             following = [self._preprocess(s)[0] for s in self._following]
             nxt = subsample(following[0], fe.wide_points)
             res = decide(grid, subsample(pts, fe.wide_points), res, self.poses[-1], guess, nxt, ws,
@@ -241,8 +242,10 @@ class LogSlam:
         ahead = [(subsample(f, la.points), f) for f in following[:la.depth]]
         others = [(self.poses[k], self.points[k]) for k in self._local_idx]
 
-        def free_space(pose: se2.PoseTuple) -> float:
-            return la.free_space_weight * inconsistency(pose, pts, others, la.free_space_margin)
+        def free_space(chain: list[tuple[se2.PoseTuple, np.ndarray]]) -> float:
+            scans = chain if la.free_space_chain else chain[:1]
+            return la.free_space_weight * sum(inconsistency(p, q, others, la.free_space_margin, la.free_space_of_all)
+                                              for p, q in scans)
 
         best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space)
         self.stats.lookahead += 1

@@ -49,9 +49,17 @@ class LookaheadConfig(StrictModel):
     prediction_margin: float = Field(0.15, ge=0, le=1, description="the motion prediction (refined) is a "
                                      "hypothesis too when it scores within this of the best, distinct peak or "
                                      "not: a scan looking into unmapped space scores low at its true pose")
-    free_space_weight: float = Field(1.0, ge=0, description="a hypothesis loses this × the share of returns "
+    free_space_weight: float = Field(4.0, ge=0, description="a hypothesis loses this × the share of returns "
                                      "it puts in the local map's free space or lets the scan see through "
                                      "(slam.see_through)")
+    free_space_chain: bool = Field(True, description="the free-space term sums over the hypothesis' whole chain "
+                                   "(its scan and the next scans at the poses found from it), not its scan only: "
+                                   "a chain one corridor period off is self-consistent, so its next scans' match "
+                                   "scores tie with the truth's, but each of them again contradicts what the "
+                                   "older scans saw as free")
+    free_space_of_all: bool = Field(True, description="the free-space share counts the returns that contradict "
+                                    "against all the returns compared, not only those that overlap: a share of "
+                                    "the overlap favours poses that overlap the older scans most")
     free_space_margin: float = Field(0.3, gt=0, description="a return this much closer than the other scan's "
                                      "on its bearing was seen through, m")
     points: int = Field(40, ge=10, description="scan points scored by the look-ahead searches (80 measured: the "
@@ -105,11 +113,12 @@ def _penalty(pose: se2.PoseTuple, guess: se2.PoseTuple, prior: tuple[float, floa
 
 def choose(hypotheses: Sequence[CsmResult], prev: se2.PoseTuple, points: np.ndarray,
            following: Sequence[tuple[np.ndarray, np.ndarray]], grid_of: GridOf, wide: WideRun,
-           penalty: Callable[[se2.PoseTuple], float] | None = None
+           penalty: Callable[[list[tuple[se2.PoseTuple, np.ndarray]]], float] | None = None
            ) -> tuple[CsmResult, list[float]]:
     """The hypothesis whose own score plus the following scans' scores (each matched in the wide window from
     the constant-velocity prediction against the local map holding the hypothesis' scans) is highest.
-    `points`: the current scan's map points; `following`: (search points, map points) of the next scans."""
+    `points`: the current scan's map points; `following`: (search points, map points) of the next scans;
+    `penalty`: of the chain (hypothesis and the next scans at the poses it found, with their map points)."""
     totals: list[float] = []
     for h in hypotheses:
         chain: list[tuple[se2.PoseTuple, np.ndarray]] = [(h.pose, points)]
@@ -125,6 +134,6 @@ def choose(hypotheses: Sequence[CsmResult], prev: se2.PoseTuple, points: np.ndar
             chain.append((r.pose, map_pts))
             before, last = last, r.pose
         if penalty is not None:
-            total -= penalty(h.pose)
+            total -= penalty(chain)
         totals.append(total)
     return hypotheses[int(np.argmax(totals))], totals

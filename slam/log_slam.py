@@ -29,14 +29,13 @@ from slam.hypotheses import WideSearch, decide, escalated
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
-from slam.lookahead import alternatives, choose
+from slam.lookahead import alternatives, choose, free_space_penalty
 from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
 from slam.motion_prior import predicted_step
 from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
-from slam.see_through import inconsistency
 from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
 
@@ -241,13 +240,7 @@ class LogSlam:
 
         ahead = [(subsample(f, la.points), f) for f in following[:la.depth]]
         others = [(self.poses[k], self.points[k]) for k in self._local_idx]
-
-        def free_space(chain: list[tuple[se2.PoseTuple, np.ndarray]]) -> float:
-            scans = chain if la.free_space_chain else chain[:1]
-            return la.free_space_weight * sum(inconsistency(p, q, others, la.free_space_margin, la.free_space_of_all)
-                                              for p, q in scans)
-
-        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space)
+        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space_penalty(others, la))
         self.stats.lookahead += 1
         self.stats.lookahead_switched += best is not res
         if best is not res:

@@ -30,6 +30,7 @@ from sim.config import StrictModel
 from sim.transforms import se2_between, se2_compose
 from slam import se2
 from slam.csm import CsmResult, MatchGrid, search
+from slam.see_through import inconsistency
 
 GridOf = Callable[[list[tuple[se2.PoseTuple, np.ndarray]]], MatchGrid]  # extra (pose, points) → local map
 WideRun = Callable[[MatchGrid, np.ndarray, se2.PoseTuple], "CsmResult | None"]  # the wide search from a guess
@@ -111,9 +112,23 @@ def _penalty(pose: se2.PoseTuple, guess: se2.PoseTuple, prior: tuple[float, floa
     return prior[0] * (d[0] ** 2 + d[1] ** 2) + prior[1] * math.remainder(pose[2] - guess[2], math.tau) ** 2
 
 
+Chain = list[tuple[se2.PoseTuple, np.ndarray]]  # a hypothesis' scan and the next scans, at their poses (map points)
+
+
+def free_space_penalty(others: Sequence[tuple[se2.PoseTuple, np.ndarray]], config: LookaheadConfig
+                       ) -> Callable[[Chain], float]:
+    """`choose`'s penalty: `free_space_weight` × the free-space inconsistency of the chain's scans (or its
+    first only) with the older scans `others` (pose, points), which no hypothesis placed."""
+    def penalty(chain: Chain) -> float:
+        scans = chain if config.free_space_chain else chain[:1]
+        return config.free_space_weight * sum(inconsistency(p, q, others, config.free_space_margin,
+                                                            config.free_space_of_all) for p, q in scans)
+    return penalty
+
+
 def choose(hypotheses: Sequence[CsmResult], prev: se2.PoseTuple, points: np.ndarray,
            following: Sequence[tuple[np.ndarray, np.ndarray]], grid_of: GridOf, wide: WideRun,
-           penalty: Callable[[list[tuple[se2.PoseTuple, np.ndarray]]], float] | None = None
+           penalty: Callable[[Chain], float] | None = None
            ) -> tuple[CsmResult, list[float]]:
     """The hypothesis whose own score plus the following scans' scores (each matched in the wide window from
     the constant-velocity prediction against the local map holding the hypothesis' scans) is highest.
@@ -121,7 +136,7 @@ def choose(hypotheses: Sequence[CsmResult], prev: se2.PoseTuple, points: np.ndar
     `penalty`: of the chain (hypothesis and the next scans at the poses it found, with their map points)."""
     totals: list[float] = []
     for h in hypotheses:
-        chain: list[tuple[se2.PoseTuple, np.ndarray]] = [(h.pose, points)]
+        chain: Chain = [(h.pose, points)]
         last, before = h.pose, prev
         total = h.score
         for search_pts, map_pts in following:

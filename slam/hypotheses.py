@@ -30,6 +30,13 @@ class HypothesesConfig(StrictModel):
                          "hypothesis (mean hit likelihood, after the prior penalty)")
     same_xy: float = Field(0.3, gt=0, description="hypotheses closer than this (and same_yaw) are one, m")
     same_yaw: float = Field(0.1, gt=0, description="rad")
+    to_lookahead: bool = Field(True, description="the second hypothesis joins the look-ahead's hypotheses "
+                               "(`slam.lookahead.choose`: the chain of next scans matched from it, and the "
+                               "free-space term) instead of being decided here by the next scan's score alone, "
+                               "which matches the next scan on the map without the hypothesis' scan")
+    alt_min_score: float = Field(0.2, gt=0, lt=1, description="… and is kept down to this score (after the "
+                                 "prior penalty): a scan looking into unmapped space scores ~0.25–0.3 at its "
+                                 "true pose (orebro step 213 with noise or half the beams)")
     escalate: float = Field(2.0, ge=1, description="when the wide window finds no match, or only one on its "
                             "edge, search once more in a window this many times larger (yaw capped at ±π): a "
                             "log with half the scan rate moves up to 5 m and 130° more than the "
@@ -94,3 +101,18 @@ def escalated(wide: WideSearch, grid: MatchGrid, points: np.ndarray, guess: se2.
     if res is None or wide.at_edge(res.pose, guess, grid.resolution, factor):
         return None
     return res
+
+
+def alternative(grid: MatchGrid, points: np.ndarray, best: CsmResult, guess: se2.PoseTuple, wide: WideSearch,
+                config: HypothesesConfig) -> CsmResult | None:
+    """The second hypothesis of a weak wide match `best` (as `decide` forms it, down to `alt_min_score`), for
+    the look-ahead to weigh; None if `best` is strong, or the alternative is none or the same pose."""
+    if not config.enabled or best.score >= config.below:
+        return None
+    alt = search(grid, points, guess, window_xy=wide.window_xy / 2, window_yaw=wide.window_yaw / 2,
+                 min_score=config.alt_min_score, top_level=4, max_range_for_step=5.0,
+                 prior_weight_xy=wide.weight_xy, prior_weight_yaw=wide.weight_yaw)
+    if alt is None:
+        return None
+    d = se2_between(best.pose, alt.pose)
+    return None if math.hypot(d[0], d[1]) < config.same_xy and abs(d[2]) < config.same_yaw else alt

@@ -25,7 +25,7 @@ from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.edge_switch import Surface
-from slam.hypotheses import WideSearch, decide, escalated
+from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
@@ -182,12 +182,15 @@ class LogSlam:
         self._surface = None
         if wide and self._following:
             following = [self._preprocess(s)[0] for s in self._following]
-            nxt = subsample(following[0], fe.wide_points)
-            res = decide(grid, subsample(pts, fe.wide_points), res, self.poses[-1], guess, nxt, ws,
-                         self.config.hypotheses)
+            wp, hy, extra = subsample(pts, fe.wide_points), self.config.hypotheses, []
+            if hy.to_lookahead and self.config.lookahead.enabled:
+                alt = alternative(grid, wp, res, guess, ws, hy)
+                extra = [] if alt is None else [alt]
+            else:
+                res = decide(grid, wp, res, self.poses[-1], guess, subsample(following[0], fe.wide_points), ws, hy)
             if res is None:
                 return None, self._odom_cov
-            res = self._look_ahead(grid, pts, res, guess, following, ws, fill=not has_odom)
+            res = self._look_ahead(grid, pts, res, guess, following, ws, not has_odom, extra)
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
                   inlier_distance=fe.icp_max_correspondence, range_sigma=fe.icp_range_sigma)
         pose = fit.pose
@@ -220,8 +223,10 @@ class LogSlam:
         return pose, np.linalg.inv(info) + self._floor(se2_between(self.poses[-1], pose))
 
     def _look_ahead(self, grid: MatchGrid, pts: np.ndarray, res: CsmResult, guess: se2.PoseTuple,
-                    following: list[np.ndarray], ws: WideSearch, fill: bool) -> CsmResult:
-        """`res`, or a near-tied distinct peak of its score surface that the next scans match better from."""
+                    following: list[np.ndarray], ws: WideSearch, fill: bool, extra: list[CsmResult]
+                    ) -> CsmResult:
+        """`res`, or a near-tied distinct peak of its score surface (or one of `extra`) that the next scans
+        match better from."""
         la, fe, mp = self.config.lookahead, self.config.frontend, self.config.motion_prior
         if not la.enabled:
             return res
@@ -229,6 +234,9 @@ class LogSlam:
         surface = translation_surface(grid, wp, res.pose, fe.wide_window_xy, self.config.match_covariance.step)
         self._surface = surface  # the edge's covariance reuses it (ICP moves the pose less than a cell)
         alts = alternatives(grid, wp, res, guess, surface, la, (mp.weight_xy, mp.weight_yaw))
+        alts += [e for e in extra if all(math.hypot(e.pose[0] - h.pose[0], e.pose[1] - h.pose[1]) >= la.min_separation
+                                         or abs(math.remainder(e.pose[2] - h.pose[2], math.tau)) >= la.refine_yaw
+                                         for h in [res, *alts])]
         if not alts:
             return res
 
@@ -240,7 +248,8 @@ class LogSlam:
 
         ahead = [(subsample(f, la.points), f) for f in following[:la.depth]]
         others = [(self.poses[k], self.points[k]) for k in self._local_idx]
-        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space_penalty(others, la))
+        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run,
+                         free_space_penalty(others, la))
         self.stats.lookahead += 1
         self.stats.lookahead_switched += best is not res
         if best is not res:

@@ -7,6 +7,12 @@ each hypothesis, matches the map 0.74 from the right one and 0.56 from the wrong
 scores below `below`, a second hypothesis is formed — the best match in a window half as large around the
 motion prediction (or the prediction itself) — and the hypothesis whose own score plus the next scan's best
 score from it is higher wins. Latency: one scan; cost: three more wide searches on such steps only.
+
+With `to_lookahead` (default) that second hypothesis is handed to `slam.lookahead` instead (`alternative`):
+here the next scan is matched on the map without either hypothesis' scan, from each one's prediction in the
+same wide window, so both usually find the same match and the own score alone decides; the look-ahead carries
+each hypothesis' chain and weighs its free-space consistency (orebro with range noise, seed 2: decided here,
+step 213 took a 93° wrong turn, 5.5 m ATE; handed over, 0.50 m).
 """
 
 from __future__ import annotations

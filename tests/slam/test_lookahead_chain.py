@@ -17,7 +17,7 @@ import pytest
 from sim.types import Pose2D
 from slam import se2
 from slam.csm import CsmResult, MatchGrid
-from slam.hypotheses import WideSearch
+from slam.hypotheses import HypothesesConfig, WideSearch, alternative
 from slam.lookahead import LookaheadConfig, choose, free_space_penalty
 from slam.see_through import inconsistency, seen_through
 from tests.slam import synth
@@ -103,3 +103,15 @@ def test_seen_through_needs_both_bracketing_beams() -> None:
     b = np.column_stack([4.0 * np.cos(b_ang), 4.0 * np.sin(b_ang)])
     # −5.5°: both neighbours at 5 m went past it; −0.5°: one of them stopped at 2 m; 5.5°: behind the post
     assert seen_through((0.0, 0.0, 0.0), a, (0.0, 0.0, 0.0), b) == (1, 3)
+
+
+def test_weak_match_alternative_for_the_lookahead() -> None:
+    # a weak wide match far from the prediction gets the half window's best match around the prediction as a
+    # second hypothesis; a strong match, or an alternative at the match itself, gets none
+    grid = MatchGrid(_panels(0.0, 19.0), 0.05, 0.07, margin=6.5)
+    pts = _points(7.0, 2.5)
+    cfg = HypothesesConfig()
+    alt = alternative(grid, pts, CsmResult((5.0, 0.3, 0.4), 0.3, 0), (7.05, 0.0, 0.0), WIDE, cfg)
+    assert alt is not None and math.hypot(alt.pose[0] - 7.0, alt.pose[1]) < 0.1 and abs(alt.pose[2]) < 0.05
+    assert alternative(grid, pts, CsmResult((5.0, 0.3, 0.4), 0.6, 0), (7.05, 0.0, 0.0), WIDE, cfg) is None
+    assert alternative(grid, pts, CsmResult(alt.pose, 0.3, 0), (7.05, 0.0, 0.0), WIDE, cfg) is None

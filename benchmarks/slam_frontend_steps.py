@@ -60,7 +60,7 @@ def main() -> int:
         return orig_add(self, *a, **k)
 
     def choose(hyps: Sequence[CsmResult], prev: Pose, points: np.ndarray, following: Any, grid_of: Any,
-               wide: Any, penalty: Callable[[Pose], float] | None = None) -> tuple[CsmResult, list[float]]:
+               wide: Any, penalty: Callable[[Any], float] | None = None) -> tuple[CsmResult, list[float]]:
         i = node["i"]
         truth = se2_compose(prev, se2_between(tuple(ref[i - 1]), tuple(ref[i])))
         rows = []
@@ -72,8 +72,8 @@ def main() -> int:
                 parts.append(None if r is None else round(r.score, 3))
                 return r
 
-            def rec_pen(pose: Pose, parts: list[Any] = parts) -> float:
-                v = penalty(pose) if penalty is not None else 0.0
+            def rec_pen(chain: Any, parts: list[Any] = parts) -> float:
+                v = penalty(chain) if penalty is not None else 0.0
                 parts.append(f"fs {v:.3f}")
                 return v
 

@@ -26,18 +26,17 @@ from slam import se2
 from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.edge_switch import Surface
-from slam.hypotheses import WideSearch, decide
+from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
-from slam.lookahead import alternatives, choose
+from slam.lookahead import alternatives, choose, free_space_penalty
 from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
-from slam.motion_prior import at_window_edge, predicted_step
+from slam.motion_prior import predicted_step
 from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
-from slam.see_through import inconsistency
 from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
 
@@ -177,20 +176,24 @@ class LogSlam:
                          window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
                          max_range_for_step=5.0, prior_weight_xy=self.config.motion_prior.weight_xy,
                          prior_weight_yaw=self.config.motion_prior.weight_yaw)
-        if res is None or (wide and at_window_edge(res.pose, guess, fe.wide_window_xy, fe.wide_window_yaw,
-                                                   grid.resolution, math.radians(2))):
+        mp = self.config.motion_prior
+        ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
+        if wide and (res is None or ws.at_edge(res.pose, guess, grid.resolution)):
+            res = escalated(ws, grid, subsample(pts, fe.wide_points), guess, self.config.hypotheses.escalate)
+        if res is None:
             return None, self._odom_cov
         self._surface = None
         if wide and self._following:
-            mp = self.config.motion_prior
-            ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
             following = [self._preprocess(s)[0] for s in self._following]
-            nxt = subsample(following[0], fe.wide_points)
-            res = decide(grid, subsample(pts, fe.wide_points), res, self.poses[-1], guess, nxt, ws,
-                         self.config.hypotheses)
+            wp, hy, extra = subsample(pts, fe.wide_points), self.config.hypotheses, []
+            if hy.to_lookahead and self.config.lookahead.enabled:
+                alt = alternative(grid, wp, res, guess, ws, hy)
+                extra = [] if alt is None else [alt]
+            else:
+                res = decide(grid, wp, res, self.poses[-1], guess, subsample(following[0], fe.wide_points), ws, hy)
             if res is None:
                 return None, self._odom_cov
-            res = self._look_ahead(grid, pts, res, guess, following, ws, fill=not has_odom)
+            res = self._look_ahead(grid, pts, res, guess, following, ws, not has_odom, extra)
         fit = icp(pts, target, res.pose, max_correspondence=fe.icp_max_correspondence,
                   inlier_distance=fe.icp_max_correspondence, range_sigma=fe.icp_range_sigma)
         pose = fit.pose
@@ -223,8 +226,10 @@ class LogSlam:
         return pose, np.linalg.inv(info) + self._floor(se2_between(self.poses[-1], pose))
 
     def _look_ahead(self, grid: MatchGrid, pts: np.ndarray, res: CsmResult, guess: se2.PoseTuple,
-                    following: list[np.ndarray], ws: WideSearch, fill: bool) -> CsmResult:
-        """`res`, or a near-tied distinct peak of its score surface that the next scans match better from."""
+                    following: list[np.ndarray], ws: WideSearch, fill: bool, extra: list[CsmResult]
+                    ) -> CsmResult:
+        """`res`, or a near-tied distinct peak of its score surface (or one of `extra`) that the next scans
+        match better from."""
         la, fe, mp = self.config.lookahead, self.config.frontend, self.config.motion_prior
         if not la.enabled:
             return res
@@ -232,6 +237,9 @@ class LogSlam:
         surface = translation_surface(grid, wp, res.pose, fe.wide_window_xy, self.config.match_covariance.step)
         self._surface = surface  # the edge's covariance reuses it (ICP moves the pose less than a cell)
         alts = alternatives(grid, wp, res, guess, surface, la, (mp.weight_xy, mp.weight_yaw))
+        alts += [e for e in extra if all(math.hypot(e.pose[0] - h.pose[0], e.pose[1] - h.pose[1]) >= la.min_separation
+                                         or abs(math.remainder(e.pose[2] - h.pose[2], math.tau)) >= la.refine_yaw
+                                         for h in [res, *alts])]
         if not alts:
             return res
 
@@ -243,11 +251,8 @@ class LogSlam:
 
         ahead = [(subsample(f, la.points), f) for f in following[:la.depth]]
         others = [(self.poses[k], self.points[k]) for k in self._local_idx]
-
-        def free_space(pose: se2.PoseTuple) -> float:
-            return la.free_space_weight * inconsistency(pose, pts, others, la.free_space_margin)
-
-        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run, free_space)
+        best, _ = choose([res, *alts], self.poses[-1], pts, ahead, grid_of, ws.run,
+                         free_space_penalty(others, la))
         self.stats.lookahead += 1
         self.stats.lookahead_switched += best is not res
         if best is not res:

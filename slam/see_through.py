@@ -32,17 +32,24 @@ def seen_through(pose_a: se2.PoseTuple, pts_a: np.ndarray, pose_b: se2.PoseTuple
     p = se2.transform_points(se2_between(pose_a, pose_b), pts_b)
     ang, r = np.arctan2(p[:, 1], p[:, 0]), np.hypot(p[:, 0], p[:, 1])
     j = np.clip(np.searchsorted(ang_a, ang), 1, len(ang_a) - 1)
-    j = np.where(np.abs(ang_a[j] - ang) < np.abs(ang_a[j - 1] - ang), j, j - 1)
-    seen = np.abs(ang_a[j] - ang) <= max_gap
-    return int((seen & (r < r_a[j] - margin)).sum()), int(seen.sum())
+    near_hi, near_lo = np.abs(ang_a[j] - ang) <= max_gap, np.abs(ang_a[j - 1] - ang) <= max_gap
+    seen = near_hi | near_lo
+    # seen through only if every bracketing beam of a within max_gap went past it: at a depth edge or a wall
+    # at grazing incidence the range jumps between neighbouring beams, and the nearer beam alone decides wrongly
+    reach = np.minimum(np.where(near_hi, r_a[j], np.inf), np.where(near_lo, r_a[j - 1], np.inf))
+    return int((seen & (r < reach - margin)).sum()), int(seen.sum())
 
 
 def inconsistency(pose: se2.PoseTuple, pts: np.ndarray, others: Sequence[tuple[se2.PoseTuple, np.ndarray]],
-                  margin: float = 0.3) -> float:
-    """Share of the returns (both ways, over every other scan) that one scan saw through (0 … 1)."""
+                  margin: float = 0.3, of_all: bool = False) -> float:
+    """Share of the returns (both ways, over every other scan) that one scan saw through (0 … 1): of those on
+    a bearing the other scan covers, or (`of_all`) of all of them, so that a pose with little overlap with the
+    other scans is not judged on a few returns."""
     bad = total = 0
     for q, other in others:
         for a, b in (seen_through(q, other, pose, pts, margin), seen_through(pose, pts, q, other, margin)):
             bad += a
             total += b
+    if of_all:
+        total = sum(len(pts) + len(other) for _, other in others)
     return bad / total if total else 0.0

@@ -30,7 +30,7 @@ from slam.loop_closure import descriptor_distance, ring_descriptor
 from slam.loop_coverage import Coverage
 from slam.loop_groups import Pending, largest_group
 from slam.match_covariance import translation_surface
-from slam.pose_graph import Kernel, gaussian
+from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
 
 if TYPE_CHECKING:
     from slam.log_slam import LogSlam
@@ -230,6 +230,9 @@ class LoopFinder:
         k = g.add_between(target, source, relative, covariance, self.kernel_for(target, source, relative),
                           self.config.kernel_width)
         g.converge(max_steps=20)
+        if g.removed(k):  # GTSAM could not solve the graph with it (`PoseGraph._repair`)
+            self._sync()
+            return self._record(Closure(source, target, relative, score, inliers, rmse, False, "graph_indeterminate"))
         chi2 = g.chi2(k)
         if chi2 > self.config.residual_chi2:
             g.remove(k)
@@ -263,7 +266,10 @@ class LoopFinder:
             return
         self._take_out(added)
         for e, d in self._named_edges(members)[: self.config.edge_switch.tries]:
-            switched = self._switch_edge(e, d)
+            try:
+                switched = self._switch_edge(e, d)
+            except IndeterminateGraph:  # the graph was restored without the switch
+                continue
             added, fits, broken = self._add_group(members)
             if len(fits) >= gc.min_size and not broken:
                 self.switched.append(e)
@@ -278,7 +284,8 @@ class LoopFinder:
         added = {g.add_between(p.target, p.source, p.relative, p.covariance, self.config.kernel,
                                self.config.kernel_width): p for p in members}
         g.converge(max_steps=50)
-        fits = {k: p for k, p in added.items() if g.chi2(k) <= lim}
+        self._sync()
+        fits = {k: p for k, p in added.items() if not g.removed(k) and g.chi2(k) <= lim}
         return added, fits, [k for k in self.active if g.chi2(k) > lim]
 
     def _take_out(self, added: dict[int, Pending]) -> None:
@@ -300,6 +307,8 @@ class LoopFinder:
         g.converge(max_steps=50)
         s.refresh_poses()
         for k, p in fits.items():
+            if g.removed(k):
+                continue
             c = Closure(p.source, p.target, p.relative, p.score, p.inliers, p.rmse, True, "accepted_in_group")
             self._activate(k, c, p.covariance)
             self._record(c)
@@ -347,6 +356,15 @@ class LoopFinder:
         k = next(k for k, (i, j, _, _) in enumerate(self.slam.edges) if i == e - 1 and j == e)
         self.slam.edges[k] = self._old_edge.pop(e)
         g.converge(max_steps=50)
+        self.slam.refresh_poses()
+
+    def _sync(self) -> None:
+        """Take out of `active` (and record) accepted closures a failed GTSAM step dropped."""
+        for k in [k for k in self.active if self.slam.graph.removed(k)]:
+            c = self.active[k]
+            self._deactivate(k)
+            self._record(Closure(c.source, c.target, c.relative, c.score, c.inliers, c.rmse, False,
+                                 "graph_indeterminate"))
         self.slam.refresh_poses()
 
     def _activate(self, k: int, closure: Closure, covariance: np.ndarray) -> None:

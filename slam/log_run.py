@@ -94,6 +94,7 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         "loop_closures": {"accepted": sum(c.accepted for c in closures),
                           "rejected": sum(not c.accepted for c in closures),
                           "reasons": dict(slam.loops.reasons), "list": [c.as_dict() for c in closures]},
+        "pose_graph_repairs": slam.graph.repairs,  # failed GTSAM steps and what was dropped (PoseGraph._repair)
         "ms_per_scan": 1000 * wall / max(n, 1),
         "cpu_ms_per_scan": 1000 * float(np.sum(slam.stats.cpu_times)) / max(n, 1),
         "ms_per_scan_p95": float(np.percentile(slam.stats.times, 95) * 1000) if slam.stats.times else 0.0,

@@ -232,6 +232,7 @@ class LoopFinder:
         g.converge(max_steps=20)
         if g.removed(k):  # GTSAM could not solve the graph with it (`PoseGraph._repair`)
             self._sync()
+            self.slam.refresh_poses()
             return self._record(Closure(source, target, relative, score, inliers, rmse, False, "graph_indeterminate"))
         chi2 = g.chi2(k)
         if chi2 > self.config.residual_chi2:
@@ -365,7 +366,6 @@ class LoopFinder:
             self._deactivate(k)
             self._record(Closure(c.source, c.target, c.relative, c.score, c.inliers, c.rmse, False,
                                  "graph_indeterminate"))
-        self.slam.refresh_poses()
 
     def _activate(self, k: int, closure: Closure, covariance: np.ndarray) -> None:
         self.active[k] = closure

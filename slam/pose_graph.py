@@ -163,7 +163,8 @@ class PoseGraph:
         """Drop a factor (a loop closure that failed the consistency check); a no-op if it is gone already."""
         if self._factors[factor_index] is None:
             return
-        self.update()  # flush the queue first: a rebuild below must see only what iSAM2 has
+        if self._queued:  # flush the queue first: a rebuild below must see only what iSAM2 has
+            self.update()
         self._factors[factor_index] = None
         try:
             self._isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values(), [factor_index])

@@ -27,9 +27,8 @@ from slam.edge_switch import rank_edges
 from slam.icp import IcpTarget, icp
 from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
-from slam.loop_coverage import Coverage
+from slam.loop_coverage import Coverage, rival
 from slam.loop_groups import Pending, largest_group
-from slam.match_covariance import translation_surface
 from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
 
 if TYPE_CHECKING:
@@ -213,7 +212,7 @@ class LoopFinder:
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "icp_fitness"))
         cov = np.linalg.inv(fit.information + 1e-9 * np.eye(3)) + self._floor
-        if sm.coverage is not None and _rival(sm.grid, sub, fit.pose, radius) > c.weak_max_rival * res.score:
+        if sm.coverage is not None and rival(sm.grid, sub, fit.pose, radius) > c.weak_max_rival * res.score:
             # a corridor's walls fit anywhere along it: the match must stand out (coverage has no descriptor)
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "not_distinct"))
@@ -393,13 +392,6 @@ class LoopFinder:
         self.history.append(closure)
         self.reasons[closure.reason] += 1
         return closure
-
-
-def _rival(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, radius: float) -> float:
-    """Best score of `points` at `pose` shifted by 0.5 … `radius` m (0.15 m lattice, same rotation)."""
-    offsets, scores = translation_surface(grid, points, pose, radius, 0.15)
-    far = np.hypot(offsets[:, 0], offsets[:, 1]) > 0.5
-    return float(scores[far].max()) if far.any() else 0.0
 
 
 def _thin(points: np.ndarray, spacing: float) -> np.ndarray:

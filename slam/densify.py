@@ -30,6 +30,7 @@ from sim.config import StrictModel
 from sim.transforms import se2_between
 from slam import se2
 from slam.csm import MatchGrid, first_per_cell, search
+from slam.densify_groups import add_groups, coverage_matches
 from slam.icp import IcpTarget, icp
 
 if TYPE_CHECKING:
@@ -54,6 +55,14 @@ class DensifyConfig(StrictModel):
     window_yaw: float = Field(math.radians(8), gt=0, description="rad")
     points: int = Field(120, ge=10, description="scan points scored by the search")
     passes: int = Field(1, ge=1, description="match, optimise; repeated from the new estimate")
+    coverage_groups: bool = Field(True, description="then re-try long-range coverage matches against submaps "
+                                  "rebuilt at the optimised poses, added only as agreeing groups "
+                                  "(`slam.densify_groups`)")
+    coverage_every: float = Field(1.0, gt=0, description="… a keyframe every this much path, m")
+    coverage_radius: float = Field(1.5, gt=0, description="… searched ± this around the estimate, m")
+    coverage_unlinked: float = Field(3.0, gt=0, description="… only keyframes with no loop closure or densified "
+                                     "constraint ending within this much path (the stretches that hang on the "
+                                     "chain alone), m")
 
 
 class Densifier:
@@ -63,18 +72,32 @@ class Densifier:
         self.added = 0
         self.rejected = 0
         self.constraints: list[tuple[int, int, se2.PoseTuple]] = []  # (anchor, keyframe, keyframe in anchor frame)
+        self.group_added = 0  # coverage matches added in agreeing groups
+        self.group_candidates = 0  # … out of this many verified
 
     def run(self) -> None:
         for _ in range(self.config.passes):
             if not self._pass():
-                return
+                break
+        if self.config.coverage_groups and self.slam.config.loops.coverage:
+            s, lc = self.slam, self.slam.config.loops
+            path = np.array(s.path)
+            ends = [e for c in s.loops.active.values() for e in (c.source, c.target)]
+            ends += [e for a, i, _ in self.constraints for e in (a, i)]
+            linked = np.sort(path[ends]) if ends else np.zeros(0)
+            keys = [k for k in _every(path, self.config.coverage_every) if len(s.points[k]) >= lc.min_points
+                    and not _near(linked, path[k], self.config.coverage_unlinked)]
+            matches = coverage_matches(s, self.config, keys)
+            kept = add_groups(s, matches)
+            self.group_candidates, self.group_added = len(matches), len(kept)
+            self.constraints.extend((p.target, p.source, p.relative) for p in kept)
 
     def _pass(self) -> bool:
         c, s, lc = self.config, self.slam, self.slam.config.loops
         poses, path = np.array(s.poses), np.array(s.path)
         anchors = _every(path, c.anchor_spacing)
         keys = [k for k in _every(path, c.every_distance) if len(s.points[k]) >= lc.min_points]
-        have = {(cl.target, cl.source) for cl in s.loops.active.values()}
+        have = {(cl.target, cl.source) for cl in s.loops.active.values()} | {(a, i) for a, i, _ in self.constraints}
         maps: dict[tuple[int, int], tuple[MatchGrid, IcpTarget]] = {}
         floor = np.diag([lc.sigma_floor_xy ** 2, lc.sigma_floor_xy ** 2, lc.sigma_floor_yaw ** 2])
         found: list[tuple[int, int, se2.PoseTuple, np.ndarray]] = []
@@ -143,3 +166,9 @@ def _every(path: np.ndarray, spacing: float) -> list[int]:
             out.append(k)
             last = p
     return out
+
+
+def _near(sorted_values: np.ndarray, x: float, gap: float) -> bool:
+    """Whether any of `sorted_values` is within `gap` of x."""
+    n = int(np.searchsorted(sorted_values, x))
+    return any(abs(float(sorted_values[m]) - x) <= gap for m in (n - 1, n) if 0 <= m < len(sorted_values))

@@ -25,13 +25,13 @@ from slam import se2
 from slam.csm import MatchGrid, first_per_cell, search
 from slam.edge_switch import rank_edges
 from slam.icp import IcpTarget, icp
-from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
 from slam.loop_coverage import Coverage, rival
 from slam.loop_groups import Pending, largest_group
 from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
 
 if TYPE_CHECKING:
+    from slam.log_config import LoopConfig
     from slam.log_slam import LogSlam
 
 

@@ -188,8 +188,8 @@ class PoseGraph:
         try:
             result = gtsam.LevenbergMarquardtOptimizer(graph, self._estimate, params).optimize()
             self._rebuild(result)
-        except RuntimeError as e:  # keep iSAM2's estimate (iSAM2 itself is untouched unless _rebuild failed)
-            self._restore(self._estimate, f"batch optimisation failed, iSAM2's estimate kept: {_why(e)}")
+        except RuntimeError as e:  # keep iSAM2 as it was (`_rebuild` swaps it in only once it succeeded)
+            self.repairs.append(f"batch optimisation failed, iSAM2's estimate kept: {_why(e)}")
         self._set_estimate()
         return float(graph.error(self._estimate))
 
@@ -290,7 +290,6 @@ class PoseGraph:
             if f is not None:
                 graph.add(f)
         return float(graph.error(self._estimate))
-
 
 
 def _why(error: Exception) -> str:

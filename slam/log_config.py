@@ -8,6 +8,7 @@ from typing import Literal
 from pydantic import Field
 
 from sim.config import StrictModel
+from slam.densify import DensifyConfig
 from slam.edge_switch import EdgeSwitchConfig
 from slam.hypotheses import HypothesesConfig
 from slam.lookahead import LookaheadConfig
@@ -144,6 +145,8 @@ class LogSlamConfig(StrictModel):
     lookahead: LookaheadConfig = LookaheadConfig()
     switchable: SwitchableConfig = SwitchableConfig()
     loops: LoopConfig = LoopConfig()
+    densify: DensifyConfig = Field(DensifyConfig(), description="at the end of the log, every keyframe matched "
+                                   "against its spatial neighbours in the optimised graph (`slam.densify`)")
     mapping: MappingConfig = MappingConfig(max_range=20.0, log_odds_miss=-0.2)  # hits outweigh grazing passes
     final_batch: bool = Field(False, description="also a batch Levenberg-Marquardt pass over the whole graph at "
                               "the end (measured: no change on freiburg-079, 0.089 m either way)")

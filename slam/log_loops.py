@@ -25,14 +25,13 @@ from slam import se2
 from slam.csm import MatchGrid, first_per_cell, search
 from slam.edge_switch import rank_edges
 from slam.icp import IcpTarget, icp
-from slam.log_config import LoopConfig
 from slam.loop_closure import descriptor_distance, ring_descriptor
-from slam.loop_coverage import Coverage
+from slam.loop_coverage import Coverage, rival
 from slam.loop_groups import Pending, largest_group
-from slam.match_covariance import translation_surface
-from slam.pose_graph import Kernel, gaussian
+from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
 
 if TYPE_CHECKING:
+    from slam.log_config import LoopConfig
     from slam.log_slam import LogSlam
 
 
@@ -213,7 +212,7 @@ class LoopFinder:
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "icp_fitness"))
         cov = np.linalg.inv(fit.information + 1e-9 * np.eye(3)) + self._floor
-        if sm.coverage is not None and _rival(sm.grid, sub, fit.pose, radius) > c.weak_max_rival * res.score:
+        if sm.coverage is not None and rival(sm.grid, sub, fit.pose, radius) > c.weak_max_rival * res.score:
             # a corridor's walls fit anywhere along it: the match must stand out (coverage has no descriptor)
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "not_distinct"))
@@ -230,6 +229,10 @@ class LoopFinder:
         k = g.add_between(target, source, relative, covariance, self.kernel_for(target, source, relative),
                           self.config.kernel_width)
         g.converge(max_steps=20)
+        if g.removed(k):  # GTSAM could not solve the graph with it (`PoseGraph._repair`)
+            self._sync()
+            self.slam.refresh_poses()
+            return self._record(Closure(source, target, relative, score, inliers, rmse, False, "graph_indeterminate"))
         chi2 = g.chi2(k)
         if chi2 > self.config.residual_chi2:
             g.remove(k)
@@ -263,7 +266,10 @@ class LoopFinder:
             return
         self._take_out(added)
         for e, d in self._named_edges(members)[: self.config.edge_switch.tries]:
-            switched = self._switch_edge(e, d)
+            try:
+                switched = self._switch_edge(e, d)
+            except IndeterminateGraph:  # the graph was restored without the switch
+                continue
             added, fits, broken = self._add_group(members)
             if len(fits) >= gc.min_size and not broken:
                 self.switched.append(e)
@@ -278,7 +284,8 @@ class LoopFinder:
         added = {g.add_between(p.target, p.source, p.relative, p.covariance, self.config.kernel,
                                self.config.kernel_width): p for p in members}
         g.converge(max_steps=50)
-        fits = {k: p for k, p in added.items() if g.chi2(k) <= lim}
+        self._sync()
+        fits = {k: p for k, p in added.items() if not g.removed(k) and g.chi2(k) <= lim}
         return added, fits, [k for k in self.active if g.chi2(k) > lim]
 
     def _take_out(self, added: dict[int, Pending]) -> None:
@@ -300,6 +307,8 @@ class LoopFinder:
         g.converge(max_steps=50)
         s.refresh_poses()
         for k, p in fits.items():
+            if g.removed(k):
+                continue
             c = Closure(p.source, p.target, p.relative, p.score, p.inliers, p.rmse, True, "accepted_in_group")
             self._activate(k, c, p.covariance)
             self._record(c)
@@ -349,6 +358,14 @@ class LoopFinder:
         g.converge(max_steps=50)
         self.slam.refresh_poses()
 
+    def _sync(self) -> None:
+        """Take out of `active` (and record) accepted closures a failed GTSAM step dropped."""
+        for k in [k for k in self.active if self.slam.graph.removed(k)]:
+            c = self.active[k]
+            self._deactivate(k)
+            self._record(Closure(c.source, c.target, c.relative, c.score, c.inliers, c.rmse, False,
+                                 "graph_indeterminate"))
+
     def _activate(self, k: int, closure: Closure, covariance: np.ndarray) -> None:
         self.active[k] = closure
         self._edge[k] = (closure.target, closure.source, closure.relative, covariance)
@@ -375,13 +392,6 @@ class LoopFinder:
         self.history.append(closure)
         self.reasons[closure.reason] += 1
         return closure
-
-
-def _rival(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, radius: float) -> float:
-    """Best score of `points` at `pose` shifted by 0.5 … `radius` m (0.15 m lattice, same rotation)."""
-    offsets, scores = translation_surface(grid, points, pose, radius, 0.15)
-    far = np.hypot(offsets[:, 0], offsets[:, 1]) > 0.5
-    return float(scores[far].max()) if far.any() else 0.0
 
 
 def _thin(points: np.ndarray, spacing: float) -> np.ndarray:

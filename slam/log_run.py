@@ -94,8 +94,12 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         "loop_closures": {"accepted": sum(c.accepted for c in closures),
                           "rejected": sum(not c.accepted for c in closures),
                           "reasons": dict(slam.loops.reasons), "list": [c.as_dict() for c in closures]},
+        "pose_graph_repairs": slam.graph.repairs,  # failed GTSAM steps and what was dropped (PoseGraph._repair)
         "ms_per_scan": 1000 * wall / max(n, 1),
-        "cpu_ms_per_scan": 1000 * float(np.sum(slam.stats.cpu_times)) / max(n, 1),
+        "cpu_ms_per_scan": 1000 * (float(np.sum(slam.stats.cpu_times)) + slam.stats.finish_cpu) / max(n, 1),
+        "finish_cpu_ms_per_scan": 1000 * slam.stats.finish_cpu / max(n, 1),
+        "densify": {"added": slam.densifier.added, "rejected": slam.densifier.rejected,
+                    "group_added": slam.densifier.group_added, "group_candidates": slam.densifier.group_candidates},
         "ms_per_scan_p95": float(np.percentile(slam.stats.times, 95) * 1000) if slam.stats.times else 0.0,
         "wall_s": wall, "log_duration_s": span, "real_time_factor": span / wall if wall > 0 and span > 0 else None,
     }

@@ -25,6 +25,7 @@ from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
+from slam.densify import Densifier
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
@@ -63,6 +64,7 @@ class FrontEndStats:
     local_map_builds: int = 0
     times: list[float] = field(default_factory=list)  # s of wall time per scan
     cpu_times: list[float] = field(default_factory=list)  # s of process CPU time per scan (all threads)
+    finish_cpu: float = 0.0  # s of process CPU time in finish() (end-of-log optimisation, `slam.densify`)
 
 
 class LogSlam:
@@ -93,6 +95,7 @@ class LogSlam:
         self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
         self._mixtures: dict[int, object] = {}  # node → its incoming max-mixture edge (kept alive here)
         self.loops = LoopFinder(cfg.loops, self)
+        self.densifier = Densifier(cfg.densify, self)
         fe = cfg.frontend
         self._edge_floor = np.diag([fe.sigma_floor_xy ** 2, fe.sigma_floor_xy ** 2, fe.sigma_floor_yaw ** 2])
         self._odom_cov = np.diag([fe.odom_sigma_xy ** 2, fe.odom_sigma_xy ** 2, fe.odom_sigma_yaw ** 2])
@@ -348,11 +351,17 @@ class LogSlam:
     # ---- results -------------------------------------------------------------------------------------
 
     def finish(self) -> None:
-        """Converge iSAM2, then (config.final_batch) one Levenberg-Marquardt pass over the whole graph."""
+        """Converge iSAM2, densify (`slam.densify`), then (config.final_batch) one Levenberg-Marquardt pass over
+        the whole graph."""
+        c0 = time.process_time()
         self.graph.converge()
+        if self.config.densify.enabled and self.config.loops.enabled:
+            self.refresh_poses()
+            self.densifier.run()
         if self.config.final_batch and self.loops.accepted:
             self.graph.batch_optimize()
         self.refresh_poses()
+        self.stats.finish_cpu = time.process_time() - c0
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.stamps), np.array(self.poses)

@@ -14,6 +14,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from slam import se2
+from slam.csm import MatchGrid
+from slam.match_covariance import translation_surface
 
 
 class Coverage:
@@ -28,3 +30,10 @@ class Coverage:
         """Mask of `points` (sensor frame, at `pose` in the anchor's frame) within `radius` of the submap."""
         d, _ = self.tree.query(se2.transform_points(pose, points), distance_upper_bound=radius)
         return np.isfinite(d)
+
+
+def rival(grid: MatchGrid, points: np.ndarray, pose: se2.PoseTuple, radius: float) -> float:
+    """Best score of `points` at `pose` shifted by 0.5 … `radius` m (0.15 m lattice, same rotation)."""
+    offsets, scores = translation_surface(grid, points, pose, radius, 0.15)
+    far = np.hypot(offsets[:, 0], offsets[:, 1]) > 0.5
+    return float(scores[far].max()) if far.any() else 0.0

@@ -3,6 +3,13 @@
 Keys are keyframe indices. Every factor ever added is also kept in `_factors` so a batch
 Levenberg-Marquardt re-optimisation (and a rebuild of iSAM2 from its result) sees exactly the graph
 iSAM2 has, minus the factors removed by the consistency check.
+
+An iSAM2 step can fail (GTSAM's IndeterminateLinearSystemException, a RuntimeError): a factor with NaN or
+near-zero variance, or one that leaves a pose unconstrained. iSAM2 is then unusable (every later step fails
+too), so the graph is rebuilt from the last good estimate without the step's culprits: a new pose's edge
+that is degenerate on its own is replaced by a loose edge at its guess, and if that is not enough the step's
+other new factors (loop closures) are dropped. `dropped` says which factor went and why, `repairs` what
+each failed step did.
 """
 
 from __future__ import annotations
@@ -16,6 +23,13 @@ from sim.errors import ErrorCode, FleetError
 from slam import se2
 
 Kernel = Literal["cauchy", "huber", "none"]
+
+
+class IndeterminateGraph(FleetError):
+    """A graph change GTSAM could not solve; the graph was restored without it."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(ErrorCode.INVALID_ARGUMENT, message, "the change was undone; the graph is as before")
 
 
 def gaussian(covariance: np.ndarray) -> gtsam.noiseModel.Base:
@@ -32,17 +46,23 @@ def robust(base: gtsam.noiseModel.Base, kernel: Kernel, width: float) -> gtsam.n
 
 class PoseGraph:
     def __init__(self, *, prior_sigmas: tuple[float, float, float] = (1e-3, 1e-3, 1e-4),
-                 relinearize_threshold: float = 0.001) -> None:
+                 relinearize_threshold: float = 0.001,
+                 loose_sigmas: tuple[float, float, float] = (0.2, 0.2, 0.1)) -> None:
         self._prior = gtsam.noiseModel.Diagonal.Sigmas(np.array(prior_sigmas, dtype=np.float64))
+        self._loose = gtsam.noiseModel.Diagonal.Sigmas(np.array(loose_sigmas, dtype=np.float64))
         self._relin = relinearize_threshold
         self._isam = self._new_isam()
         self._factors: list[gtsam.NonlinearFactor | None] = []  # index = iSAM2 factor index (None: removed)
         self._estimate = gtsam.Values()
         self._pending = gtsam.NonlinearFactorGraph()
         self._pending_values = gtsam.Values()
+        self._queued: list[tuple[int, bool]] = []  # (factor index, holds a new pose) in _pending
+        self._recent: list[int] = []  # other factors of the last update (suspects if relinearising fails)
         self._poses: np.ndarray | None = None  # cache of poses(), dropped whenever the estimate changes
         self.size = 0
         self.chain: dict[int, int] = {}  # pose i → index of the factor from pose i − 1 (its front-end edge)
+        self.dropped: dict[int, str] = {}  # factor index → why a failed step dropped it
+        self.repairs: list[str] = []  # what each failed step did
 
     def _new_isam(self) -> gtsam.ISAM2:
         params = gtsam.ISAM2Params()
@@ -58,14 +78,14 @@ class PoseGraph:
         `factor`, e.g. a max-mixture edge from pose i − 1, instead)."""
         i = self.size
         if factor is not None and i > 0:
-            self.chain[i] = self._queue(factor)
+            self.chain[i] = self._queue(factor, True)
         elif i == 0:
-            self._queue(gtsam.PriorFactorPose2(0, gtsam.Pose2(*guess), self._prior))
+            self._queue(gtsam.PriorFactorPose2(0, gtsam.Pose2(*guess), self._prior), True)
         else:
             if odometry is None or covariance is None:
                 raise FleetError(ErrorCode.INVALID_ARGUMENT, "poses after the first need odometry and covariance")
             self.chain[i] = self._queue(gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(*odometry),
-                                                                 gaussian(covariance)))
+                                                                 gaussian(covariance)), True)
         self._pending_values.insert(i, gtsam.Pose2(*guess))
         self._poses = None
         self.size += 1
@@ -81,7 +101,8 @@ class PoseGraph:
         return self._queue(gtsam.BetweenFactorPose2(i, j, gtsam.Pose2(*relative), noise))
 
     def swap(self, factor_index: int, factor: gtsam.NonlinearFactor) -> tuple[int, gtsam.NonlinearFactor]:
-        """Replace a factor: (the new one's index, the old factor, to swap back later)."""
+        """Replace a factor: (the new one's index, the old factor, to swap back later). Raises
+        IndeterminateGraph, with the old factor kept, if GTSAM cannot solve the graph with the new one."""
         old = self._factors[factor_index]
         if old is None:
             raise FleetError(ErrorCode.NOT_FOUND, f"factor {factor_index} was removed")
@@ -89,23 +110,36 @@ class PoseGraph:
         graph = gtsam.NonlinearFactorGraph()
         graph.add(factor)
         self._factors.append(factor)
-        self._isam.update(graph, gtsam.Values(), [factor_index])  # in one step: the chain never breaks
+        new = len(self._factors) - 1
+        try:
+            self._isam.update(graph, gtsam.Values(), [factor_index])  # in one step: the chain never breaks
+        except RuntimeError as e:
+            self._factors[new] = None
+            self.dropped[new] = _why(e)
+            self._restore(self._estimate, f"swap of factor {factor_index} undone: {_why(e)}")
+            raise IndeterminateGraph(f"swapping factor {factor_index}: {_why(e)}") from e
         self._factors[factor_index] = None
         self._set_estimate()
-        return len(self._factors) - 1, old
+        return new, old
 
-    def _queue(self, factor: gtsam.NonlinearFactor) -> int:
+    def _queue(self, factor: gtsam.NonlinearFactor, new_pose: bool = False) -> int:
         self._pending.add(factor)
         self._factors.append(factor)
+        self._queued.append((len(self._factors) - 1, new_pose))
         return len(self._factors) - 1
 
     # ---- optimising ----------------------------------------------------------------------------------
 
     def update(self) -> None:
-        """One iSAM2 step with everything queued."""
-        self._isam.update(self._pending, self._pending_values)
-        self._pending = gtsam.NonlinearFactorGraph()
-        self._pending_values = gtsam.Values()
+        """One iSAM2 step with everything queued. If GTSAM fails, the graph is repaired (`_repair`)."""
+        graph, values, queued = self._pending, self._pending_values, self._queued
+        self._pending, self._pending_values, self._queued = gtsam.NonlinearFactorGraph(), gtsam.Values(), []
+        if queued:
+            self._recent = [k for k, new_pose in queued if not new_pose]
+        try:
+            self._isam.update(graph, values)
+        except RuntimeError as e:
+            self._repair(queued, values, _why(e))
         self._set_estimate()
 
     def converge(self, max_steps: int = 10, tolerance: float = 1e-4) -> int:
@@ -114,7 +148,10 @@ class PoseGraph:
         self.update()
         before = self.poses()
         for k in range(1, max_steps + 1):
-            self._isam.update()
+            try:
+                self._isam.update()
+            except RuntimeError as e:  # relinearising failed: the last update's other factors are the suspects
+                self._repair([(f, False) for f in self._recent], gtsam.Values(), _why(e))
             self._set_estimate()
             after = self.poses()
             if np.abs(after - before).max() < tolerance:
@@ -123,10 +160,20 @@ class PoseGraph:
         return max_steps
 
     def remove(self, factor_index: int) -> None:
-        """Drop a factor (a loop closure that failed the consistency check)."""
-        self._isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values(), [factor_index])
+        """Drop a factor (a loop closure that failed the consistency check); a no-op if it is gone already."""
+        if self._factors[factor_index] is None:
+            return
+        if self._queued:  # flush the queue first: a rebuild below must see only what iSAM2 has
+            self.update()
         self._factors[factor_index] = None
+        try:
+            self._isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values(), [factor_index])
+        except RuntimeError as e:
+            self._restore(self._estimate, f"removing factor {factor_index} failed, rebuilt: {_why(e)}")
         self._set_estimate()
+
+    def removed(self, factor_index: int) -> bool:
+        return self._factors[factor_index] is None
 
     def batch_optimize(self, max_iterations: int = 100) -> float:
         """Levenberg-Marquardt over the whole graph from the current estimate; iSAM2 restarts from the
@@ -138,18 +185,65 @@ class PoseGraph:
                 graph.add(f)
         params = gtsam.LevenbergMarquardtParams()
         params.setMaxIterations(max_iterations)
-        result = gtsam.LevenbergMarquardtOptimizer(graph, self._estimate, params).optimize()
-        # Rebuild iSAM2 with the same factor order so indices (used by `remove`) stay valid.
-        self._isam = self._new_isam()
+        try:
+            result = gtsam.LevenbergMarquardtOptimizer(graph, self._estimate, params).optimize()
+            self._rebuild(result)
+        except RuntimeError as e:  # keep iSAM2 as it was (`_rebuild` swaps it in only once it succeeded)
+            self.repairs.append(f"batch optimisation failed, iSAM2's estimate kept: {_why(e)}")
+        self._set_estimate()
+        return float(graph.error(self._estimate))
+
+    # ---- recovering from a failed step ---------------------------------------------------------------
+
+    def _rebuild(self, values: gtsam.Values) -> None:
+        """A new iSAM2 from every factor at `values`, in the same order, so indices (used by `remove`) stay
+        valid: a removed factor's slot holds a placeholder that is removed again at once."""
+        isam = self._new_isam()
         rebuilt = gtsam.NonlinearFactorGraph()
         for f in self._factors:
             rebuilt.add(f if f is not None else gtsam.PriorFactorPose2(0, gtsam.Pose2(), self._prior))
+        isam.update(rebuilt, values)
         removed = [k for k, f in enumerate(self._factors) if f is None]
-        self._isam.update(rebuilt, result)
         if removed:
-            self._isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values(), removed)
-        self._set_estimate()
-        return float(graph.error(self._estimate))
+            isam.update(gtsam.NonlinearFactorGraph(), gtsam.Values(), removed)
+        self._isam = isam
+
+    def _restore(self, values: gtsam.Values, note: str) -> None:
+        """Rebuild after a failed step whose culprit is already out of `_factors`."""
+        self.repairs.append(note)
+        try:
+            self._rebuild(values)
+        except RuntimeError as e:
+            raise FleetError(ErrorCode.INTERNAL, f"pose graph cannot be rebuilt: {_why(e)}",
+                             "a factor already in the graph is degenerate") from e
+
+    def _repair(self, step: list[tuple[int, bool]], values: gtsam.Values, why: str) -> None:
+        """iSAM2 failed on a step that added `step`'s factors ((index, holds a new pose)) and `values`' poses;
+        it is unusable now. Rebuild from the last good estimate: first with every new pose's edge that is
+        degenerate on its own replaced by a loose edge at its guess (the pose stays in the chain); if that
+        still fails, also without the step's other factors (loop closures), which are dropped."""
+        base = gtsam.Values(self._estimate)
+        base.insert(values)
+        replaced = False
+        for k, new_pose in step:
+            f = self._factors[k]
+            if new_pose and k > 0 and f is not None and not determinate(f, base):
+                i, j = sorted(f.keys())
+                self._factors[k] = gtsam.BetweenFactorPose2(i, j, base.atPose2(i).between(base.atPose2(j)),
+                                                            self._loose)
+                self.repairs.append(f"edge {i}->{j} degenerate ({why}): replaced by a loose edge at its guess")
+                replaced = True
+        if replaced:
+            try:
+                self._rebuild(base)
+                return
+            except RuntimeError:
+                pass
+        others = [k for k, new_pose in step if not new_pose and self._factors[k] is not None]
+        for k in others:
+            self._factors[k] = None
+            self.dropped[k] = why
+        self._restore(base, f"step failed ({why}): dropped factors {others}")
 
     def _set_estimate(self) -> None:
         self._estimate = self._isam.calculateEstimate()
@@ -197,3 +291,20 @@ class PoseGraph:
                 graph.add(f)
         return float(graph.error(self._estimate))
 
+
+def _why(error: Exception) -> str:
+    text = " ".join(str(error).split())
+    return "indeterminate linear system" if "Indeterminate" in text else text[:120]
+
+
+def determinate(factor: gtsam.NonlinearFactor, values: gtsam.Values) -> bool:
+    """Whether a factor pins its newest pose relative to the others on its own at `values`: finite, and the
+    information block of that pose positive definite (not near zero relative to its largest eigenvalue)."""
+    keys = list(factor.keys())
+    info = np.asarray(factor.linearize(values).information())
+    if not np.all(np.isfinite(info)):
+        return False
+    at = 3 * keys.index(max(keys))
+    block = info[at:at + 3, at:at + 3]
+    eig = np.linalg.eigvalsh(0.5 * (block + block.T))
+    return bool(eig.min() > 1e-12 * max(float(eig.max()), 1.0))

@@ -63,6 +63,24 @@ def test_wrong_closure_is_rejected_and_the_map_unchanged(run: tuple[LogSlam, np.
     assert np.abs(after[:, :2] - before[:, :2]).max() < 0.01
 
 
+def test_closure_gtsam_cannot_solve_is_dropped_and_slam_goes_on(
+        run: tuple[LogSlam, np.ndarray, np.ndarray, Path]) -> None:
+    """A NaN closure makes iSAM2 throw IndeterminateLinearSystemException; the closure is rejected with that
+    reason, the map stays, and a later closure is still added."""
+    slam, _, _, _ = run
+    _, before = slam.trajectory()
+    cov = np.diag([0.03**2, 0.03**2, 0.01**2])
+    bad = slam.loops.add(20, 120, (math.nan, 0.0, 0.0), cov)
+    assert not bad.accepted and bad.reason == "graph_indeterminate"
+    _, after = slam.trajectory()
+    assert np.abs(after[:, :2] - before[:, :2]).max() < 0.01
+    x0, y0, t0 = slam.poses[150]
+    x1, y1, t1 = slam.poses[160]
+    c, s = math.cos(t0), math.sin(t0)
+    now = (c * (x1 - x0) + s * (y1 - y0), -s * (x1 - x0) + c * (y1 - y0), t1 - t0)
+    assert slam.loops.add(150, 160, now, cov).accepted  # the graph still works
+
+
 def test_cli_run_and_eval(run: tuple[LogSlam, np.ndarray, np.ndarray, Path], tmp_path: Path) -> None:
     _, _, _, path = run
     out = tmp_path / "out"

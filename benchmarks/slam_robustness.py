@@ -28,6 +28,7 @@ from pathlib import Path
 
 # Run as a script, this file's folder comes first on sys.path and its name would shadow the slam package.
 sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # `benchmarks.slam_real` without PYTHONPATH
 
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402

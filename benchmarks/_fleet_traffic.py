@@ -41,7 +41,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
-                withdraw: str = "off", flush_s: float = 1.0, admission: str = "off") -> dict[str, Any]:
+                withdraw: str = "off", flush_s: float = 1.0, admission: str = "off",
+                urgent_cells: int | None = None) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -50,7 +51,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                              urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost,
                              push_frozen=push_frozen, congestion=congestion,
                              urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s,
-                             admission=admission)
+                             admission=admission, urgent_cells=urgent_cells)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -131,7 +132,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
                 f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
-                f"window {window}, withdraw {withdraw}, admission {admission}"
+                f"window {window}, withdraw {withdraw}, admission {admission}, urgent_cells {urgent_cells}"
                 f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,
@@ -149,7 +150,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 **latency_summary(latency, [svc.world.time - t for nm, t in given.items()
                                             if tm.pending[tm.names.index(nm)] or tm.held(nm)]),
                 "admission_limit": d["admission_limit"], "lowest_limit": d.get("lowest_limit", np.inf),
-                "held_now": d["held_now"], "longest_hold_s": d.get("longest_hold_s", 0.0),
+                "held_now": d["held_now"], "urgent_now": d["urgent_now"],
+                "longest_hold_s": d.get("longest_hold_s", 0.0),
                 "rtf": svc.world.time / wall,
                 "rtf_cpu": svc.world.time / cpu, "wall_s": wall, "cpu_s": cpu,
                 "load": f"{load0:.1f}-{os.getloadavg()[0]:.1f}"}

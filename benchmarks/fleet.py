@@ -190,6 +190,9 @@ def main() -> None:
     ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park"), default=["off"],
                     help="traffic layer: dispatch admission, one run each: aimd = new goals held (FIFO) while the "
                          "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); default off")
+    ap.add_argument("--urgent-cells", type=int, default=None,
+                    help="traffic layer: urgency ends once a robot is this many cells closer than when it became "
+                         "urgent (it may become urgent again); default: urgent until it reaches its goal")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -212,15 +215,15 @@ def main() -> None:
                          "deadlocks", "resolved", "unresolved", "longest_deadlock_s", "longest_open_s",
                          "cycle_waits", "longest_cycle_wait_s", "queue_waits", "longest_queue_wait_s", "classify_cpu_s",
                          "fields_computed", "withdrawn", "latency_p50_s", "latency_p95_s", "latency_max_s",
-                         "oldest_open_task_s", "admission_limit", "lowest_limit", "held_now", "longest_hold_s",
-                         "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
+                         "oldest_open_task_s", "admission_limit", "lowest_limit", "held_now", "urgent_now",
+                         "longest_hold_s", "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
                     for prio, rule, wd, adm in itertools.product(a.priority, a.rule, a.withdraw, a.admission):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
-                                        withdraw=wd, flush_s=a.flush_s, admission=adm,
+                                        withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

@@ -14,7 +14,8 @@ if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
 
 SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed", "priority", "urgent_s", "yield_aside",
-            "highway", "congestion", "urgent_rank", "withdraw", "flush_s", "admission")
+            "highway", "congestion", "urgent_rank", "withdraw", "flush_s", "admission",
+            "urgent_cells")
 
 
 def traffic_layer(service: FleetService) -> TrafficManager | None:

@@ -69,16 +69,18 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 admission: Literal["off", "aimd", "park"] = "off", record: bool = False) -> None:
+                 admission: Literal["off", "aimd", "park"] = "off", urgent_cells: int | None = None,
+                 record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
         self.gap = 2 * self.radius + GAP_MARGIN
         check_settings(cell=cell, gap=self.gap, radius=self.radius, priority=priority, window=window,
                        urgent_s=urgent_s, urgent_rank=urgent_rank, highway=highway, congestion=congestion,
-                       withdraw=withdraw, flush_s=flush_s, admission=admission)
+                       withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells)
         self.priority, self.window, self.stall_s = priority, window, stall_s
         self.urgent_s, self.urgent_rank = urgent_s, urgent_rank
+        self.urgent_cells = urgent_cells  # urgency ends after this many cells closer than when it began (None: at goal)
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -100,7 +102,7 @@ class TrafficManager:
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
                                                                             "best", "best_at", "hold", "scale",
-                                                                            "urgent_at")
+                                                                            "urgent_at", "urgent_d")
         for k in ints:
             setattr(self, k, np.zeros(0, np.int64))
         for k in floats:
@@ -120,6 +122,7 @@ class TrafficManager:
         self.hold: np.ndarray  # sim time until which a robot is held (delayed) where it is
         self.scale: np.ndarray  # per-robot speed factor
         self.urgent_at: np.ndarray  # sim time a robot became urgent (waited urgent_s), +inf when it is not
+        self.urgent_d: np.ndarray  # its best distance to goal then (cells)
         self.released = np.zeros(0, bool)
         self.pending = np.zeros(0, bool)  # a goal given and not reached yet
         self._tie = np.zeros(0)
@@ -146,7 +149,7 @@ class TrafficManager:
         now = w.time
         row = {"a": node, "b": node, "claim": -1, "seg_step": BIG, "claim_step": BIG, "goal": node, "s": 0.0,
                "sd": 0.0, "sign": 1.0, "since": now, "best": 0.0, "best_at": now, "hold": -math.inf, "scale": 1.0,
-               "urgent_at": math.inf,
+               "urgent_at": math.inf, "urgent_d": 0.0,
                "released": True, "pending": False,
                "_tie": np.random.default_rng(len(self.names)).random() * 1e-3}
         for k, v in row.items():
@@ -236,7 +239,7 @@ class TrafficManager:
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
         for k in ("a", "b", "claim", "seg_step", "claim_step", "goal", "s", "sd", "sign", "since", "best",
-                  "best_at", "hold", "scale", "urgent_at", "released", "pending", "_tie"):
+                  "best_at", "hold", "scale", "urgent_at", "urgent_d", "released", "pending", "_tie"):
             setattr(self, k, np.delete(getattr(self, k), i))
 
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
@@ -393,6 +396,8 @@ class TrafficManager:
         if d < self.best[i] or d == 0:
             self.best[i], self.best_at[i] = d, now
             close_stall(self, i, now)
+            if self.urgent_cells is not None and self.urgent_d[i] - d >= self.urgent_cells:
+                self.urgent_at[i] = math.inf  # made its ground: urgent again after another urgent_s without progress
         if self.pending[i] and self.a[i] == self.goal[i]:  # there, even if the plan moves it on (pushed)
             self.pending[i] = False
             self.urgent_at[i] = math.inf
@@ -427,6 +432,7 @@ class TrafficManager:
             # pushing each other back as their priorities cross.
             late = self.pending & np.isinf(self.urgent_at) & (now - self.best_at >= self.urgent_s)
             self.urgent_at[late] = now
+            self.urgent_d[late] = self.best[late]
             urgent = np.isfinite(self.urgent_at)
             # Among the urgent: the longest without progress first (since_progress), so an urgent robot pushed
             # back by older urgent ones gets ahead of them until it has regained its ground; each change of order
@@ -445,4 +451,5 @@ class TrafficManager:
                                                 for t0, _, _ in self.open_stalls.values()), default=0.0),
                 "admission_limit": self.admission.limit if self.admission else math.inf,
                 "held_now": len(self.admission.queue) if self.admission else 0,
+                "urgent_now": int(np.isfinite(self.urgent_at).sum()),
                 **(self.admission.stats if self.admission else {}), **self.stats}

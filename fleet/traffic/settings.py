@@ -15,7 +15,7 @@ WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdra
 
 def check_settings(*, cell: float, gap: float, radius: float, priority: str, window: int, urgent_s: float | None,
                    urgent_rank: str, highway: float, congestion: float, withdraw: str, flush_s: float,
-                   admission: str) -> None:
+                   admission: str, urgent_cells: int | None = None) -> None:
     """Raise INVALID_ARGUMENT for the first setting out of its range (`gap`: the cell a robot needs, m)."""
     if gap > cell:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
@@ -39,3 +39,6 @@ def check_settings(*, cell: float, gap: float, radius: float, priority: str, win
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic flush_s must be > 0 s, got {flush_s}")
     if admission not in ADMISSION:
         raise unknown_name("traffic admission", admission, list(ADMISSION), ErrorCode.INVALID_ARGUMENT)
+    if urgent_cells is not None and urgent_cells < 1:
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_cells must be ≥ 1 cell (or None: urgent until "
+                         f"the goal), got {urgent_cells}")

@@ -14,8 +14,7 @@ import pytest
 from fleet import FleetConfig, FleetService
 from fleet.traffic import enable_traffic
 from fleet.traffic.admission import Admission, Held
-from sim import Pose2D
-from tests.fleet.test_traffic_corridor import LEFT, corridor_world
+from tests.fleet.test_traffic_corridor import STARTS, closest_pair_gap, corridor_world, spawn_swap_fleet
 
 
 def test_admit_never_exceeds_the_limit_and_keeps_fifo_order() -> None:
@@ -79,9 +78,8 @@ def tmp(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_held_robots_idle_in_the_rooms_never_block_the_admitted_ones(tmp: Path) -> None:
     with FleetService(FleetConfig(world=str(corridor_world(tmp)), seed=0, physics_hz=20.0, control_hz=10.0)) as svc:
-        starts = LEFT + [(-x, y) for x, y in LEFT]
-        for k, (x, y) in enumerate(starts):
-            svc.spawn_robot(f"r{k}", Pose2D(x, y, 0.0))
+        starts = STARTS
+        spawn_swap_fleet(svc)
         tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0, admission="aimd")
         adm = tm.admission
         assert adm is not None
@@ -102,11 +100,7 @@ def test_held_robots_idle_in_the_rooms_never_block_the_admitted_ones(tmp: Path) 
 
         def check() -> None:
             most[0] = max(most[0], int(np.count_nonzero(tm.pending)))
-            f = svc.world.table.f
-            xy = np.column_stack([f["x"], f["y"]])
-            d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
-            d[np.diag_indices(len(xy))] = np.inf
-            worst[0] = min(worst[0], float(d.min()) - 2 * tm.radius)
+            worst[0] = min(worst[0], closest_pair_gap(svc, tm.radius))
 
         svc.step_listeners.append(check)
         t = 0.0

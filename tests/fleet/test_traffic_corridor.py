@@ -18,6 +18,22 @@ from sim.types import WorldDescription
 from tests.fleet.traffic_util import Naive
 
 LEFT = [(-4.5, -1.5), (-4.5, 1.5), (-3.5, -0.5), (-2.5, 1.5)]
+STARTS = LEFT + [(-x, y) for x, y in LEFT]  # r0…r3 in the left room, r4…r7 at their mirror cells in the right one
+
+
+def spawn_swap_fleet(svc: FleetService) -> None:
+    """r0…r7 at STARTS, facing +x."""
+    for k, (x, y) in enumerate(STARTS):
+        svc.spawn_robot(f"r{k}", Pose2D(x, y, 0.0))
+
+
+def closest_pair_gap(svc: FleetService, radius: float) -> float:
+    """The smallest gap between two robots' footprint circles now, from ground-truth poses (< 0: overlap)."""
+    f = svc.world.table.f
+    xy = np.column_stack([f["x"], f["y"]])
+    d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
+    d[np.diag_indices(len(xy))] = np.inf
+    return float(d.min()) - 2 * radius
 
 
 def corridor_world(tmp: Path) -> Path:
@@ -31,9 +47,8 @@ def corridor_world(tmp: Path) -> Path:
 
 def run(tmp: Path, naive: bool, seconds: float) -> tuple[TrafficManager, float, float, float]:
     with FleetService(FleetConfig(world=str(corridor_world(tmp)), seed=0, physics_hz=20.0, control_hz=10.0)) as svc:
-        starts = LEFT + [(-x, y) for x, y in LEFT]
-        for k, (x, y) in enumerate(starts):
-            svc.spawn_robot(f"r{k}", Pose2D(x, y, 0.0))
+        starts = STARTS
+        spawn_swap_fleet(svc)
         tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0)
         if naive:
             tm.pibt = Naive(tm)  # type: ignore[assignment]
@@ -46,11 +61,8 @@ def run(tmp: Path, naive: bool, seconds: float) -> tuple[TrafficManager, float, 
 
         def check() -> None:  # independent of the layer: ground-truth poses, footprint circles
             f = svc.world.table.f
-            xy = np.column_stack([f["x"], f["y"]])
-            d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
-            d[np.diag_indices(len(xy))] = np.inf
-            worst["pair"] = min(worst["pair"], float(d.min()) - 2 * r)
-            worst["wall"] = min(worst["wall"], float(clearance.query(xy)[0].min()) - r)
+            worst["pair"] = min(worst["pair"], closest_pair_gap(svc, r))
+            worst["wall"] = min(worst["wall"], float(clearance.query(np.column_stack([f["x"], f["y"]]))[0].min()) - r)
 
         svc.step_listeners.append(check)
         t = 0.0

@@ -17,8 +17,7 @@ from fleet.traffic import enable_traffic
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.parking import Parking, parking_cells, through_flow
 from planning.distance_fields import DistanceFields
-from sim import Pose2D
-from tests.fleet.test_traffic_corridor import LEFT, corridor_world
+from tests.fleet.test_traffic_corridor import STARTS, closest_pair_gap, corridor_world, spawn_swap_fleet
 
 
 class Line:
@@ -70,9 +69,8 @@ def tmp(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_held_robots_wait_on_parking_cells_and_every_goal_is_reached(tmp: Path) -> None:
     with FleetService(FleetConfig(world=str(corridor_world(tmp)), seed=0, physics_hz=20.0, control_hz=10.0)) as svc:
-        starts = LEFT + [(-x, y) for x, y in LEFT]
-        for k, (x, y) in enumerate(starts):
-            svc.spawn_robot(f"r{k}", Pose2D(x, y, 0.0))
+        starts = STARTS
+        spawn_swap_fleet(svc)
         tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0, admission="park")
         adm, park = tm.admission, tm.parking
         assert adm is not None and park is not None
@@ -96,11 +94,7 @@ def test_held_robots_wait_on_parking_cells_and_every_goal_is_reached(tmp: Path) 
                 assert int(tm.goal[i]) == park.cells[park.owner[h.robot]]
                 if tm.a[i] == tm.b[i] == tm.goal[i]:
                     parked.add(int(tm.a[i]))
-            f = svc.world.table.f
-            xy = np.column_stack([f["x"], f["y"]])
-            d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
-            d[np.diag_indices(len(xy))] = np.inf
-            worst[0] = min(worst[0], float(d.min()) - 2 * tm.radius)
+            worst[0] = min(worst[0], closest_pair_gap(svc, tm.radius))
 
         svc.step_listeners.append(check)
         t = 0.0

@@ -34,10 +34,7 @@ def _corridor() -> np.ndarray:
 
 
 def _points(x: float, max_range: float) -> np.ndarray:
-    s = synth.raycast(_corridor(), Pose2D(x, 0.0, 0.0), beams=360, max_range=max_range)
-    a = s.angles()
-    ok = np.isfinite(s.ranges)
-    return np.column_stack([s.ranges[ok] * np.cos(a[ok]), s.ranges[ok] * np.sin(a[ok])])
+    return synth.raycast(_corridor(), Pose2D(x, 0.0, 0.0), beams=360, max_range=max_range).points()
 
 
 def _panels(x0: float, x1: float) -> np.ndarray:

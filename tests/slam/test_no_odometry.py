@@ -102,10 +102,7 @@ def test_log_without_odometry_is_mapped(tmp_path: Path) -> None:
 
 
 def _points(pose: Pose2D) -> np.ndarray:
-    s = synth.raycast(carmen_synth.SEGS, pose, beams=360, max_range=10.0)
-    a = s.angles()
-    ok = np.isfinite(s.ranges)
-    return np.column_stack([s.ranges[ok] * np.cos(a[ok]), s.ranges[ok] * np.sin(a[ok])])[::3]
+    return synth.raycast(carmen_synth.SEGS, pose, beams=360, max_range=10.0).points()[::3]
 
 
 def test_a_weak_wrong_match_is_settled_by_the_next_scan() -> None:

@@ -45,7 +45,7 @@ from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
 from fleet.traffic.stalls import close_stall, open_stalls
-from fleet.traffic.withdraw import flush, free_ahead
+from fleet.traffic.withdraw import drop_stale, flush, free_ahead
 from sim.errors import ErrorCode, FleetError
 from sim.transforms import wrap_angles
 
@@ -70,7 +70,7 @@ class TrafficManager:
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
                  admission: Literal["off", "aimd", "park"] = "off", urgent_cells: int | None = None,
-                 record: bool = False) -> None:
+                 one_way: bool = False, fresh_goal: bool = False, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -82,7 +82,7 @@ class TrafficManager:
         self.urgent_s, self.urgent_rank = urgent_s, urgent_rank
         self.urgent_cells = urgent_cells  # urgency ends after this many cells closer than when it began (None: at goal)
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
-                                lane_cost=lane_cost, highway=highway)
+                                lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.pibt.yield_aside, self.pibt.push_frozen = yield_aside, push_frozen
         self.sched = Schedule(len(self.grid), record)
@@ -96,6 +96,7 @@ class TrafficManager:
             self.pibt.field = self.congestion.to
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         self.flush_s, self._flush_at = flush_s, 0.0
+        self.fresh_goal, self._fresh = fresh_goal, set[str]()  # moves queued for an old goal withdrawn (withdraw.py)
         self.admission = layer_admission(admission, stall_s, len(self.grid))  # new goals held while congested
         self.parking = Parking(self.grid) if admission == "park" else None  # held robots wait off the main flow
         self.names: list[str] = []
@@ -191,6 +192,8 @@ class TrafficManager:
         self.best[i] = self.grid.fields.to(node)[self.a[i]]
         self.urgent_at[i] = math.inf
         self.pending[i] = node != self.a[i] or self.a[i] != self.b[i]
+        if self.fresh_goal:
+            self._fresh.add(self.names[i])
         return node
 
     def hold_robot(self, robot: str, seconds: float) -> None:
@@ -271,6 +274,11 @@ class TrafficManager:
             self._arrive(i, now)
         if self.withdraw != "off":
             self._withdraw(now)
+        if self._fresh:
+            here, keep = np.where(self.claim >= 0, self.claim, self.b), ~np.isfinite(self.urgent_at)
+            for i in (self._idx[n] for n in self._fresh if n in self._idx):
+                self.stats["withdrawn"] += drop_stale(sched, here, i, keep | (np.arange(len(keep)) == i))
+            self._fresh.clear()
         # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
         #    the one after when it continues straight on (no stop at the centre)
         queued = sched.head_step < BIG

@@ -19,12 +19,12 @@ and the robots it waits for, with the resolution; `deadlock_resolved` reports wh
 it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
 edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
 oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
-column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
-that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
-yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
-routing (congestion.py), withdrawing planned moves not yet started (`withdraw`, withdraw.py) and dispatch
-admission (`admission`, admission.py: new goals held while the layer is congested; `park`: held robots wait on
-parking cells off the main flow, parking.py).
+column's direction cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot
+without progress for `urgent_s` outranks all that are not urgent until it reaches its goal; among the urgent, the
+longest without progress first), yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way),
+dispatch admission (`admission`, admission.py: new goals held while the layer is congested; `park`, the default:
+held robots wait on parking cells off the main flow, parking.py) and, optionally, congestion-aware routing
+(congestion.py) and withdrawing planned moves not yet started (`withdraw`, withdraw.py).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from fleet.traffic.pibt import PIBT
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
 from fleet.traffic.stalls import close_stall, open_stalls
-from fleet.traffic.withdraw import drop_stale, flush, free_ahead
+from fleet.traffic.withdraw import flush, free_ahead
 from sim.errors import ErrorCode, FleetError
 from sim.transforms import wrap_angles
 
@@ -69,8 +69,8 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 admission: Literal["off", "aimd", "park"] = "off", urgent_cells: int | None = None,
-                 one_way: bool = False, fresh_goal: bool = False, record: bool = False) -> None:
+                 admission: Literal["off", "aimd", "park"] = "park", urgent_cells: int | None = None,
+                 one_way: bool = True, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -96,7 +96,6 @@ class TrafficManager:
             self.pibt.field = self.congestion.to
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         self.flush_s, self._flush_at = flush_s, 0.0
-        self.fresh_goal, self._fresh = fresh_goal, set[str]()  # moves queued for an old goal withdrawn (withdraw.py)
         self.admission = layer_admission(admission, stall_s, len(self.grid))  # new goals held while congested
         self.parking = Parking(self.grid) if admission == "park" else None  # held robots wait off the main flow
         self.names: list[str] = []
@@ -192,8 +191,6 @@ class TrafficManager:
         self.best[i] = self.grid.fields.to(node)[self.a[i]]
         self.urgent_at[i] = math.inf
         self.pending[i] = node != self.a[i] or self.a[i] != self.b[i]
-        if self.fresh_goal:
-            self._fresh.add(self.names[i])
         return node
 
     def hold_robot(self, robot: str, seconds: float) -> None:
@@ -274,11 +271,7 @@ class TrafficManager:
             self._arrive(i, now)
         if self.withdraw != "off":
             self._withdraw(now)
-        if self._fresh:
-            here, keep = np.where(self.claim >= 0, self.claim, self.b), ~np.isfinite(self.urgent_at)
-            for i in (self._idx[n] for n in self._fresh if n in self._idx):
-                self.stats["withdrawn"] += drop_stale(sched, here, i, keep | (np.arange(len(keep)) == i))
-            self._fresh.clear()
+
         # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
         #    the one after when it continues straight on (no stop at the centre)
         queued = sched.head_step < BIG

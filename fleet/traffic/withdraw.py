@@ -137,15 +137,3 @@ def flush(sched: Schedule, here: np.ndarray) -> int:
             sched.before[j] = -1
     sched.head_step[:] = BIG
     return total
-
-
-def drop_stale(sched: Schedule, here: np.ndarray, i: int, allowed: np.ndarray, budget: int = 64) -> int:
-    """Robot i has a new goal: withdraw the moves still queued for its old one (a held robot's way to its parking
-    cell, pushes), with whoever is planned in behind them (cut_set), if all of those are `allowed`; PIBT then plans
-    i towards its new goal from the cell it holds. Without it, a robot given a goal behind it first drives on
-    along the stale moves, away from it, and is pushed further while it turns back (docs/benchmarks-fleet.md, 17s).
-    Returns the moves withdrawn."""
-    if not sched.queue[i]:
-        return 0
-    plan = cut_set(sched, here, {i: 0}, allowed, budget)
-    return 0 if plan is None else cut(sched, here, plan)

@@ -41,8 +41,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
-                withdraw: str = "off", flush_s: float = 1.0, admission: str = "off",
-                urgent_cells: int | None = None) -> dict[str, Any]:
+                withdraw: str = "off", flush_s: float = 1.0, admission: str = "park",
+                urgent_cells: int | None = None, one_way: bool = True) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -51,7 +51,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                              urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost,
                              push_frozen=push_frozen, congestion=congestion,
                              urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s,
-                             admission=admission, urgent_cells=urgent_cells)
+                             admission=admission, urgent_cells=urgent_cells, one_way=one_way)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -132,7 +132,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
                 f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
-                f"window {window}, withdraw {withdraw}, admission {admission}, urgent_cells {urgent_cells}"
+                f"window {window}, withdraw {withdraw}, admission {admission}, urgent_cells {urgent_cells}, "
+                f"one_way {one_way}"
                 f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,

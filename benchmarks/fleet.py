@@ -187,9 +187,12 @@ def main() -> None:
                          "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); default off")
     ap.add_argument("--flush-s", type=float, default=1.0,
                     help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
-    ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park"), default=["off"],
+    ap.add_argument("--one-way", nargs="*", choices=("off", "on"), default=["on"],
+                    help="traffic layer: one-lane through corridors one-way (fleet/traffic/lanes.py), one run each")
+    ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park"), default=["park"],
                     help="traffic layer: dispatch admission, one run each: aimd = new goals held (FIFO) while the "
-                         "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); default off")
+                         "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); park: held robots "
+                         "wait on parking cells (the default)")
     ap.add_argument("--urgent-cells", type=int, default=None,
                     help="traffic layer: urgency ends once a robot is this many cells closer than when it became "
                          "urgent (it may become urgent again); default: urgent until it reaches its goal")
@@ -219,11 +222,13 @@ def main() -> None:
                          "longest_hold_s", "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    for prio, rule, wd, adm in itertools.product(a.priority, a.rule, a.withdraw, a.admission):
+                    for prio, rule, wd, adm, ow in itertools.product(a.priority, a.rule, a.withdraw, a.admission,
+                                                                     a.one_way):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
                                         withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
+                                        one_way=ow == "on",
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

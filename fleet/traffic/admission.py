@@ -11,7 +11,8 @@ Above it the limit drops to `decrease` × min(limit, active) (multiplicative dec
 while more robots are active than the last decrease allows, nor within `cooldown_s` (the signal lags by
 `stall_s`). Otherwise, while the limit binds, it grows by `grow` robots per period (additive increase); while it
 does not bind and nothing is held, it is lifted, so a layer that never congests never holds a goal. Before any
-congestion is seen, the layer starts it at 1/8 of its free cells (START_DENSITY).
+congestion is seen, the layer starts it at 1/8 of its free cells (START_DENSITY), and never below 1 / the
+stalled share (the fewest robots on which that share can be measured: 20 for `park`).
 
 `park` (parking.py): held robots wait on parking cells off the main flow instead of where they stand. Parked
 robots barely obstruct, so a lower limit costs little: the limit is cut at 5 % of the active robots in a wait
@@ -115,7 +116,9 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     """The traffic layer's admission for its `admission` setting (module doc), None when off."""
     if mode == "off":
         return None
-    start = max(1.0, START_DENSITY * cells)
+    # The stalled share cannot be measured on fewer than 1 / share robots (one wait already exceeds it), so the
+    # limit never starts below that: a small map's fleet that flows is never held (the corridor world: 28 cells).
+    start = max(1.0 / STALLED_SHARE[mode], START_DENSITY * cells)
     park = mode == "park"
     return Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
                      grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)

@@ -10,6 +10,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 
 from fleet.traffic.lanes import DirectedFields, highways
+from fleet.traffic.lanes import one_way as one_way_corridors
 from planning.distance_fields import DistanceFields
 from sim.errors import ErrorCode, FleetError
 
@@ -22,7 +23,8 @@ class TrafficGrid:
     where the straight segment between centres clears them too."""
 
     def __init__(self, clearance: StaticClearance, bounds: tuple[float, float, float, float], cell: float,
-                 radius: float, margin: float = 0.05, lane_cost: float = 1.0, highway: float = 1.0) -> None:
+                 radius: float, margin: float = 0.05, lane_cost: float = 1.0, highway: float = 1.0,
+                 one_way: bool = False) -> None:
         if not (math.isfinite(cell) and cell > 0):
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"cell must be > 0 m, got {cell}")
         self.cell = cell
@@ -60,9 +62,14 @@ class TrafficGrid:
         deg = np.bincount(r, minlength=n)
         cost = np.where(deg <= 2, lane_cost, 1.0)
         self.adjacency = csr_matrix((0.5 * (cost[r] + cost[c]), (r, c)), shape=(n, n))
-        self.neighbours = self._out(self.adjacency)
+        # One-way corridors (lanes.py): robots never meet head-on in a one-lane corridor that is not a dead end,
+        # where the one pushed back must retreat cell by cell; directions that keep the graph strongly connected.
+        self.one_way: list[list[int]] = []
+        if one_way:
+            self.adjacency, self.one_way = one_way_corridors(self.adjacency, self.ij)
+        self.neighbours = self._out(self.adjacency)  # out-neighbours (a directed graph when one-way)
         self.fields: DistanceFields  # DirectedFields is one
-        if highway != 1.0:  # moves against a lane's direction cost `highway` times more (lanes.py)
+        if highway != 1.0 or self.one_way:  # moves against a lane's direction cost `highway` times more (lanes.py)
             self.adjacency = highways(self.adjacency, self.ij, highway)
             self.fields = DirectedFields(self.adjacency)
         else:

@@ -38,3 +38,85 @@ class DirectedFields(DistanceFields):
 
     def _compute(self, goal: int) -> np.ndarray:
         return shortest_path(self._reverse, indices=goal, directed=True)
+
+
+def corridors(adjacency: csr_matrix) -> list[list[int]]:
+    """The one-lane corridors that are not dead ends: maximal chains of two or more cells with at most two
+    neighbours each, listed from one end to the other, whose two ends lead to two cells outside the chain that are
+    not neighbours (a single narrow cell is a short pass, left two-way)."""
+    adj = adjacency.tocsr()
+    nb = [adj.indices[adj.indptr[v]:adj.indptr[v + 1]].tolist() for v in range(adj.shape[0])]
+    narrow = {v for v in range(len(nb)) if len(nb[v]) <= 2}
+    seen: set[int] = set()
+    out: list[list[int]] = []
+    for s in sorted(narrow):
+        if s in seen:
+            continue
+        comp, stack = [], [s]  # the chain through s (cells of degree ≤ 2 form paths or rings)
+        seen.add(s)
+        while stack:
+            v = stack.pop()
+            comp.append(v)
+            for u in nb[v]:
+                if u in narrow and u not in seen:
+                    seen.add(u)
+                    stack.append(u)
+        ends = [v for v in comp if sum(u in narrow for u in nb[v]) <= 1]
+        if not ends:
+            continue  # a ring of one-lane cells: no ends to enter by
+        chain, prev = [ends[0]], -1
+        while True:  # walk the chain from one end
+            nxt = [u for u in nb[chain[-1]] if u in narrow and u != prev and u not in chain]
+            if not nxt:
+                break
+            prev = chain[-1]
+            chain.append(nxt[0])
+        outside = [u for u in nb[chain[0]] if u not in narrow] + (
+            [u for u in nb[chain[-1]] if u not in narrow] if len(chain) > 1 else [])
+        # A through corridor: two distinct ways out, not next to each other (a dead end has one; two corner cells
+        # of a two-wide room lead back beside where they were entered: a bulge, not a corridor).
+        if len(chain) > 1 and len(outside) == 2 and outside[0] != outside[1] and outside[1] not in nb[outside[0]]:
+            out.append(chain)
+    return out
+
+
+def _orient(adjacency: csr_matrix, chain: list[int], forward: bool) -> csr_matrix:
+    """The adjacency with the moves against `chain`'s direction (first → last if `forward`) removed, on the
+    chain and at its two mouths (no entry by the exit, no exit by the entry)."""
+    c = chain if forward else chain[::-1]
+    adj = adjacency.tolil(copy=True)
+    inner = set(c)
+    for k in range(len(c) - 1):
+        adj[c[k + 1], c[k]] = 0.0
+    for u in adjacency.indices[adjacency.indptr[c[0]]:adjacency.indptr[c[0] + 1]].tolist():
+        if u not in inner:
+            adj[c[0], u] = 0.0  # the entry cell does not lead back out
+    for u in adjacency.indices[adjacency.indptr[c[-1]]:adjacency.indptr[c[-1] + 1]].tolist():
+        if u not in inner:
+            adj[u, c[-1]] = 0.0  # the exit cell is not entered from outside
+    out = adj.tocsr()
+    out.eliminate_zeros()
+    return out
+
+
+def one_way(adjacency: csr_matrix, ij: np.ndarray) -> tuple[csr_matrix, list[list[int]]]:
+    """One-lane through corridors made one-way (as real warehouses sign them), each where the directed graph keeps
+    as many strongly connected components as before (every cell still reaches every cell it reached); a corridor
+    whose both orientations would cut the graph stays two-way. The direction tried first is the lane's of
+    `highways` (rows of even y run +x, columns of even x run +y, by the chain's first step). Returns the
+    adjacency and the chains made one-way, each listed in its direction of travel."""
+    from scipy.sparse.csgraph import connected_components
+
+    want = connected_components(adjacency, directed=True, connection="strong")[0]
+    done: list[list[int]] = []
+    for chain in corridors(adjacency):
+        d = ij[chain[1]] - ij[chain[0]]
+        lane = 1 - 2 * (ij[chain[0], 1] % 2) if d[0] != 0 else 1 - 2 * (ij[chain[0], 0] % 2)
+        first = bool((d[0] + d[1]) * lane > 0)
+        for forward in (first, not first):
+            trial = _orient(adjacency, chain, forward)
+            if connected_components(trial, directed=True, connection="strong")[0] == want:
+                adjacency = trial
+                done.append(chain if forward else chain[::-1])
+                break
+    return adjacency, done

@@ -19,12 +19,12 @@ and the robots it waits for, with the resolution; `deadlock_resolved` reports wh
 it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
 edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
 oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
-column's direction cost `highway` times more), aging (a robot without progress for `urgent_s` outranks all
-that are not urgent until it reaches its goal; among the urgent, the longest without progress first),
-yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way) and, optionally, congestion-aware
-routing (congestion.py), withdrawing planned moves not yet started (`withdraw`, withdraw.py) and dispatch
-admission (`admission`, admission.py: new goals held while the layer is congested; `park`: held robots wait on
-parking cells off the main flow, parking.py).
+column's direction cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot
+without progress for `urgent_s` outranks all that are not urgent until it reaches its goal; among the urgent, the
+longest without progress first), yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way),
+dispatch admission (`admission`, admission.py: new goals held while the layer is congested; `park`, the default:
+held robots wait on parking cells off the main flow, parking.py) and, optionally, congestion-aware routing
+(congestion.py) and withdrawing planned moves not yet started (`withdraw`, withdraw.py).
 """
 
 from __future__ import annotations
@@ -69,8 +69,8 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 admission: Literal["off", "aimd", "park"] = "off", urgent_cells: int | None = None,
-                 record: bool = False) -> None:
+                 admission: Literal["off", "aimd", "park"] = "park", urgent_cells: int | None = None,
+                 one_way: bool = True, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -82,7 +82,7 @@ class TrafficManager:
         self.urgent_s, self.urgent_rank = urgent_s, urgent_rank
         self.urgent_cells = urgent_cells  # urgency ends after this many cells closer than when it began (None: at goal)
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
-                                lane_cost=lane_cost, highway=highway)
+                                lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.pibt.yield_aside, self.pibt.push_frozen = yield_aside, push_frozen
         self.sched = Schedule(len(self.grid), record)
@@ -271,6 +271,7 @@ class TrafficManager:
             self._arrive(i, now)
         if self.withdraw != "off":
             self._withdraw(now)
+
         # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
         #    the one after when it continues straight on (no stop at the centre)
         queued = sched.head_step < BIG

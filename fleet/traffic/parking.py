@@ -42,11 +42,12 @@ def through_flow(grid: TrafficGrid, goals: int = 64) -> np.ndarray:
 def parking_cells(grid: TrafficGrid, flow: np.ndarray) -> list[int]:
     """Cells of at most median flow, lowest first, no two adjacent (module doc)."""
     chosen: set[int] = set()
+    lanes = {v for chain in getattr(grid, "one_way", []) for v in chain}  # parked in a one-way corridor, it blocks it
     cap = float(np.median(flow)) + 1e-9  # ties with the median are in (sums in a different order)
     for v in np.argsort(flow, kind="stable").tolist():
         if flow[v] > cap:
             break
-        if not any(u in chosen for u in grid.neighbours[v]):
+        if v not in lanes and not any(u in chosen for u in grid.neighbours[v]):
             chosen.add(v)
     return sorted(chosen)
 

@@ -13,7 +13,7 @@ import pytest
 
 from fleet import FleetConfig, FleetService
 from fleet.traffic import enable_traffic
-from fleet.traffic.admission import Admission, Held
+from fleet.traffic.admission import Admission, Held, layer_admission
 from tests.fleet.test_traffic_corridor import STARTS, closest_pair_gap, corridor_world, spawn_swap_fleet
 
 
@@ -69,6 +69,21 @@ def test_park_grows_by_one_robot_per_signal_lag() -> None:
     assert adm.limit == 64  # at t = 0, 10, 20 and 30 only (aimd, grow_s 0: every period, 76)
     adm.update(32.0, active=64, stalled=4)  # 4 > 5 % of 64: multiplicative decrease as before
     assert adm.limit == 44
+
+
+def test_start_limit_never_below_the_robots_the_stalled_share_needs() -> None:
+    """park's start limit is 1/8 of the free cells but never below 1 / 5 % = 20 robots (aimd: 1 / 20 % = 5), so on
+    a small map (the corridor world's 28 cells) a fleet of up to 20 robots is never held nor cut while it flows."""
+    small, large = layer_admission("park", 10.0, 28), layer_admission("park", 10.0, 965)
+    assert small is not None and large is not None
+    assert small.limit == small.free_below == 20.0
+    assert large.limit == large.free_below == 965 / 8
+    aimd = layer_admission("aimd", 10.0, 28)
+    assert aimd is not None and aimd.limit == 5.0 and aimd.free_below == 0.0
+    assert layer_admission("off", 10.0, 28) is None
+    assert not small.must_hold(19) and small.must_hold(20)
+    small.update(0.0, active=8, stalled=8)  # all 8 in a wait, nothing held: within the floor, not cut but lifted
+    assert small.limit == math.inf and small.stats["decreases"] == 0
 
 
 @pytest.fixture(scope="module")

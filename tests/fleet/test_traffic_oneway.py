@@ -1,0 +1,103 @@
+"""One-way corridors (fleet/traffic/lanes.py `one_way`): which one-lane corridors are made one-way, that the
+directed graph stays strongly connected, and that two robots meeting head-on across a one-way row never both
+enter it (PIBT steps on small grids drawn as text; closed forms, no timing)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
+
+from fleet.traffic import PIBT
+from fleet.traffic.lanes import DirectedFields, corridors, one_way
+
+# Two two-wide aisles (x = 0-1, 6-7) joined by three one-lane rows (y = 0, 2, 4); a dead end (x = 8-9, y = 2).
+LADDER = """
+........
+..####..
+..........
+..####..
+........
+"""
+# Two rooms joined by one corridor: the only link, so it must stay two-way.
+DUMBBELL = """
+..###..
+.......
+..###..
+"""
+
+
+def grid(text: str) -> tuple[csr_matrix, np.ndarray, dict[tuple[int, int], int]]:
+    """4-connected grid of the '.' cells (row 0 of the text is the top: y = rows - 1)."""
+    rows = text.strip("\n").split("\n")
+    cells = [(x, len(rows) - 1 - r) for r, line in enumerate(rows) for x, ch in enumerate(line) if ch == "."]
+    node = {c: k for k, c in enumerate(cells)}
+    edges = [(node[(x, y)], node[(x + dx, y + dy)]) for x, y in cells
+             for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)) if (x + dx, y + dy) in node]
+    adj = csr_matrix((np.ones(len(edges)), ([a for a, _ in edges], [b for _, b in edges])), shape=(len(cells),) * 2)
+    return adj, np.array(cells), node
+
+
+def strong(adj: csr_matrix) -> int:
+    return int(connected_components(adj, directed=True, connection="strong")[0])
+
+
+def test_through_corridors_found_and_dead_ends_left_out() -> None:
+    adj, ij, _ = grid(LADDER)
+    rows = sorted(sorted(int(ij[v, 1]) for v in chain) for chain in corridors(adj))
+    # the three rows between the aisles (x = 2..5 each); the dead end x = 8-9 is one-lane but not a through way
+    assert rows == [[0] * 4, [2] * 4, [4] * 4]
+    assert all(sorted(int(ij[v, 0]) for v in chain) == [2, 3, 4, 5] for chain in corridors(adj))
+
+
+def test_one_way_keeps_the_graph_strongly_connected() -> None:
+    adj, ij, node = grid(LADDER)
+    out, chains = one_way(adj, ij)
+    assert strong(adj) == 1 and strong(out) == 1
+    assert len(chains) == 3
+    east = [int(ij[c[0], 1]) for c in chains if ij[c[-1], 0] > ij[c[0], 0]]
+    # even rows run +x (highways); corridors are taken in node order (top row first), so y = 4 and 2 go east, and
+    # y = 0 east too would leave no way west: it runs west
+    assert east == [4, 2]
+    a = out.toarray()
+    for chain in chains:
+        for u, v in itertools.pairwise(chain):
+            assert a[u, v] > 0 and a[v, u] == 0  # along the chain only
+    # the mouths: the exit cell of the y = 2 row is not entered from the aisle, the entry cell does not lead out
+    assert a[node[(6, 2)], node[(5, 2)]] == 0 and a[node[(5, 2)], node[(6, 2)]] > 0
+    assert a[node[(2, 2)], node[(1, 2)]] == 0 and a[node[(1, 2)], node[(2, 2)]] > 0
+    assert a[node[(8, 2)], node[(9, 2)]] > 0 and a[node[(9, 2)], node[(8, 2)]] > 0  # the dead end stays two-way
+
+
+def test_the_only_link_between_two_rooms_stays_two_way() -> None:
+    adj, ij, _ = grid(DUMBBELL)
+    assert len(corridors(adj)) == 1
+    out, chains = one_way(adj, ij)
+    assert chains == [] and (out != adj).nnz == 0
+
+
+def test_robots_meeting_head_on_never_share_the_one_way_row() -> None:
+    """A runs (0, 2) → (7, 2) along the east-bound middle row; B runs (7, 2) → (0, 2). Two-way, B would take the
+    middle row too (the shortest way) and one would push the other back; one-way, B goes round by the west-bound
+    row y = 0 (2 + 7 + 2 = 11 cells) and both arrive without either stepping back."""
+    adj, ij, node = grid(LADDER)
+    out, _ = one_way(adj, ij)
+    fields = DirectedFields(out)
+    neighbours = [out.indices[out.indptr[v]:out.indptr[v + 1]].tolist() for v in range(out.shape[0])]
+    pibt = PIBT(neighbours, fields.to, 0)
+    cur, goals = [node[(0, 2)], node[(7, 2)]], [node[(7, 2)], node[(0, 2)]]
+    assert fields.to(goals[1])[cur[1]] == 11
+    middle = {node[(x, 2)] for x in range(2, 6)}
+    steps = 0
+    while cur != goals and steps < 30:
+        steps += 1
+        before = [fields.to(g)[c] for g, c in zip(goals, cur, strict=True)]
+        nxt = pibt.step(cur, goals, np.array([2.0, 1.0]))
+        assert len(set(nxt)) == 2 and not (nxt[0] == cur[1] and nxt[1] == cur[0])
+        assert all(v == c or v in neighbours[c] for v, c in zip(nxt, cur, strict=True))  # along the edges only
+        cur = nxt
+        assert not (cur[0] in middle and cur[1] in middle)
+        assert all(fields.to(g)[c] < b for g, c, b in zip(goals, cur, before, strict=True) if b > 0)  # no step back
+    assert cur == goals and steps == 11

@@ -17,6 +17,7 @@ odometry; this is what is left when there is neither.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from typing import Literal
@@ -61,7 +62,7 @@ def model_steps(poses: list[se2.PoseTuple], config: MotionModelsConfig) -> list[
     if len(poses) < 2:
         return [(0.0, 0.0, 0.0)] if "zero" in config.models else []
     last = poses[-config.steps - 1:]
-    recent = np.array([se2_between(a, b) for a, b in zip(last[:-1], last[1:], strict=True)])
+    recent = np.array([se2_between(a, b) for a, b in itertools.pairwise(last)])
     out: list[se2.PoseTuple] = []
     for m in config.models:
         if m == "zero":

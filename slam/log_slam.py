@@ -11,6 +11,7 @@ with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -187,7 +188,8 @@ class LogSlam:
         seeded: list[CsmResult] = []
         if wide and not has_odom and gate(res, guess, self.config.hypotheses.models):
             seeded = seeded_matches(ws.run, grid, subsample(pts, fe.wide_points), self.poses[-1], guess, res,
-                                    self.poses, self.config.hypotheses.models, ws.at_edge)
+                                    self.poses, self.config.hypotheses.models, ws.at_edge,
+                                    dataclasses.replace(ws, window_yaw=math.pi).run)
             if res is None and seeded:
                 res = seeded.pop(0)
         if res is None:

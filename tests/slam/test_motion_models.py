@@ -51,7 +51,7 @@ def test_a_stop_and_turn_is_found_by_the_no_motion_model(tmp_path: Path, turns: 
 
 
 def test_model_steps_and_gate() -> None:
-    cfg = MotionModelsConfig(enabled=True)
+    cfg = MotionModelsConfig(enabled=True, models=["zero", "straight", "median"])
     poses = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (3.0, 0.0, math.pi / 2), (3.0, 3.0, math.pi / 2)]
     # steps (own frame): (1, 0, 0), (2, 0, π/2), (3, 0, 0): speed median 2, componentwise median (2, 0, 0)
     zero, straight, median = model_steps(poses, cfg)
@@ -62,7 +62,8 @@ def test_model_steps_and_gate() -> None:
     guess = (5.0, 5.0, 0.0)
     assert gate(None, guess, cfg)
     assert gate(CsmResult(guess, cfg.weak - 0.01, 0), guess, cfg)  # weak
-    assert not gate(CsmResult((5.5, 5.0, 0.1), cfg.weak + 0.1, 0), guess, cfg)  # strong, near its prediction
-    assert gate(CsmResult((6.5, 5.0, 0.0), 0.9, 0), guess, cfg)  # strong but far from it
-    assert gate(CsmResult((5.0, 5.0, 1.0), 0.9, 0), guess, cfg)  # … or turned far from it
+    near = (5.0 + cfg.off_xy - 0.1, 5.0, cfg.off_yaw - 0.1)
+    assert not gate(CsmResult(near, cfg.weak + 0.1, 0), guess, cfg)  # strong, near its prediction
+    assert gate(CsmResult((5.0 + cfg.off_xy + 0.1, 5.0, 0.0), 0.9, 0), guess, cfg)  # strong but far from it
+    assert gate(CsmResult((5.0, 5.0, cfg.off_yaw + 0.1), 0.9, 0), guess, cfg)  # … or turned far from it
     assert not gate(None, guess, MotionModelsConfig(enabled=False))

@@ -6,8 +6,8 @@ Without odometry the wide correlative window (±2.5 m, ±85°) is centred on the
 with every second scan dropped it is 2–5 m or up to 130° off at 21 of 117 steps (the robot stops after a
 straight run, drives on after turning in place, or turns the other way). A bigger window was tried and broke a
 log that matched fine (`slam.hypotheses.escalate`). Instead, other motion models each seed a window of the same
-size: no motion (stopped, or turning in place: the ±85° covers most turns), driving straight on at the recent
-speed without turning, and the componentwise median of the last steps. Their matches join the look-ahead's
+size: no motion (stopped, or turning in place: its window spans every heading), driving straight on without
+turning at the median and at the top speed of the last steps. Their matches join the look-ahead's
 hypotheses (`slam.lookahead.choose`), which decides by the chain of next scans and its free-space consistency
 with the older scans. Cost: one wide search per distinct seed, only on steps the gate opens (the
 constant-velocity match weak, on its window's edge, far from its prediction, or none) — a step matched well
@@ -30,17 +30,17 @@ from sim.transforms import se2_between, se2_compose
 from slam import se2
 from slam.csm import CsmResult, MatchGrid
 
-Model = Literal["zero", "straight", "median"]
+Model = Literal["zero", "straight", "fast", "median"]
 WideRunFn = Callable[[MatchGrid, np.ndarray, se2.PoseTuple], "CsmResult | None"]  # the wide search from a seed
 EdgeFn = Callable[[se2.PoseTuple, se2.PoseTuple, float], bool]  # (match, seed, resolution) → on the edge
 
 
 class MotionModelsConfig(StrictModel):
     enabled: bool = False
-    models: list[Model] = Field(["zero", "straight"], description="seeds besides constant velocity: no motion; "
-                                "straight on at the median speed of the last steps; (median) the componentwise "
-                                "median of the last steps (measured: deduplicated against the others nearly "
-                                "always, no gain)")
+    models: list[Model] = Field(["zero", "straight", "fast"], description="seeds besides constant velocity: "
+                                "no motion; straight on at the median speed of the last steps; (fast) … at "
+                                "their top speed; (median) the componentwise median of the last steps "
+                                "(measured: deduplicated against the others nearly always, no gain)")
     steps: int = Field(5, ge=1, description="last steps the speed and the median are taken over")
     weak: float = Field(0.5, gt=0, le=1, description="the gate opens when the constant-velocity match scores "
                         "below this (after the prior penalty)")
@@ -73,8 +73,9 @@ def model_steps(poses: list[se2.PoseTuple], config: MotionModelsConfig) -> list[
     for m in config.models:
         if m == "zero":
             out.append((0.0, 0.0, 0.0))
-        elif m == "straight":
-            out.append((float(np.median(np.hypot(recent[:, 0], recent[:, 1]))), 0.0, 0.0))
+        elif m in ("straight", "fast"):
+            speed = np.hypot(recent[:, 0], recent[:, 1])
+            out.append((float(np.median(speed) if m == "straight" else speed.max()), 0.0, 0.0))
         else:
             med = np.median(recent, axis=0)
             out.append((float(med[0]), float(med[1]), float(med[2])))

@@ -51,10 +51,11 @@ def test_a_stop_and_turn_is_found_by_the_no_motion_model(tmp_path: Path, turns: 
 
 
 def test_model_steps_and_gate() -> None:
-    cfg = MotionModelsConfig(enabled=True, models=["zero", "straight", "median"])
+    cfg = MotionModelsConfig(enabled=True, models=["zero", "straight", "fast", "median"])
     poses = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (3.0, 0.0, math.pi / 2), (3.0, 3.0, math.pi / 2)]
-    # steps (own frame): (1, 0, 0), (2, 0, π/2), (3, 0, 0): speed median 2, componentwise median (2, 0, 0)
-    zero, straight, median = model_steps(poses, cfg)
+    # steps (own frame): (1, 0, 0), (2, 0, π/2), (3, 0, 0): speed median 2, top 3, componentwise median (2, 0, 0)
+    zero, straight, fast, median = model_steps(poses, cfg)
+    assert fast == pytest.approx((3.0, 0.0, 0.0), abs=1e-12)
     assert zero == (0.0, 0.0, 0.0)
     assert straight == pytest.approx((2.0, 0.0, 0.0), abs=1e-12)
     assert median == pytest.approx((2.0, 0.0, 0.0), abs=1e-12)

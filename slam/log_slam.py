@@ -11,7 +11,6 @@ with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -36,7 +35,7 @@ from slam.lookahead import alternatives, choose, free_space_penalty
 from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
-from slam.motion_models import gate, seeded_matches
+from slam.motion_models import with_models
 from slam.motion_prior import predicted_step
 from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
@@ -185,13 +184,10 @@ class LogSlam:
         ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
         if wide and (res is None or ws.at_edge(res.pose, guess, grid.resolution)):
             res = escalated(ws, grid, subsample(pts, fe.wide_points), guess, self.config.hypotheses.escalate)
-        seeded: list[CsmResult] = []
-        if wide and not has_odom and gate(res, guess, self.config.hypotheses.models):
-            seeded = seeded_matches(ws.run, grid, subsample(pts, fe.wide_points), self.poses[-1], guess, res,
-                                    self.poses, self.config.hypotheses.models, ws.at_edge,
-                                    dataclasses.replace(ws, window_yaw=math.pi).run)
-            if res is None and seeded:
-                res = seeded.pop(0)
+        seeded: list[CsmResult] = []  # other motion models' matches (`slam.motion_models`)
+        if wide and not has_odom:
+            res, seeded = with_models(ws, grid, subsample(pts, fe.wide_points), self.poses, guess, res,
+                                      self.config.hypotheses.models)
         if res is None:
             return None, self._odom_cov
         self._surface = None

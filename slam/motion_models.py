@@ -17,10 +17,11 @@ odometry; this is what is left when there is neither.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Callable
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from pydantic import Field
@@ -29,6 +30,9 @@ from sim.config import StrictModel
 from sim.transforms import se2_between, se2_compose
 from slam import se2
 from slam.csm import CsmResult, MatchGrid
+
+if TYPE_CHECKING:
+    from slam.hypotheses import WideSearch
 
 Model = Literal["zero", "straight", "fast", "median"]
 WideRunFn = Callable[[MatchGrid, np.ndarray, se2.PoseTuple], "CsmResult | None"]  # the wide search from a seed
@@ -124,3 +128,15 @@ def seeded_matches(run: WideRunFn, grid: MatchGrid, points: np.ndarray, prev: se
     if res is None and out and out[0].score < config.alone_min_score:
         return []
     return out
+
+
+def with_models(wide: WideSearch, grid: MatchGrid, points: np.ndarray, poses: list[se2.PoseTuple],
+                guess: se2.PoseTuple, res: CsmResult | None, config: MotionModelsConfig
+                ) -> tuple[CsmResult | None, list[CsmResult]]:
+    """The match to go on with and the other models' matches for the look-ahead, when the gate opens: `res`
+    (the constant-velocity match of `points` from `guess`), or the best seeded match if `res` is None."""
+    if not gate(res, guess, config):
+        return res, []
+    out = seeded_matches(wide.run, grid, points, poses[-1], guess, res, poses, config, wide.at_edge,
+                         dataclasses.replace(wide, window_yaw=math.pi).run)
+    return (res, out) if res is not None or not out else (out[0], out[1:])

@@ -27,6 +27,7 @@ from sim.config import StrictModel
 from sim.transforms import se2_between, se2_compose
 from slam import se2
 from slam.csm import CsmResult, MatchGrid, search
+from slam.motion_models import MotionModelsConfig
 from slam.motion_prior import at_window_edge
 
 
@@ -48,6 +49,10 @@ class HypothesesConfig(StrictModel):
                             "off). Off: at 2, orebro with every 2nd scan dropped went 15 → 6–10 m (still "
                             "broken), but seattle so went 0.045 → 21 m (a wrong match where the odometry's "
                             "window found none)")
+    models: MotionModelsConfig = Field(MotionModelsConfig(), description="a step without odometry whose "
+                                       "constant-velocity match is doubtful also searches windows seeded by "
+                                       "other motion models; their matches join the look-ahead "
+                                       "(`slam.motion_models`)")
 
 
 @dataclass(frozen=True, slots=True)

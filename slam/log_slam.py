@@ -35,6 +35,7 @@ from slam.lookahead import alternatives, choose, free_space_penalty
 from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
+from slam.motion_models import with_models
 from slam.motion_prior import predicted_step
 from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
@@ -183,6 +184,10 @@ class LogSlam:
         ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
         if wide and (res is None or ws.at_edge(res.pose, guess, grid.resolution)):
             res = escalated(ws, grid, subsample(pts, fe.wide_points), guess, self.config.hypotheses.escalate)
+        seeded: list[CsmResult] = []  # other motion models' matches (`slam.motion_models`)
+        if wide and not has_odom:
+            res, seeded = with_models(ws, grid, subsample(pts, fe.wide_points), self.poses, guess, res,
+                                      self.config.hypotheses.models)
         if res is None:
             return None, self._odom_cov
         self._surface = None
@@ -191,7 +196,7 @@ class LogSlam:
             wp, hy, extra = subsample(pts, fe.wide_points), self.config.hypotheses, []
             if hy.to_lookahead and self.config.lookahead.enabled:
                 alt = alternative(grid, wp, res, guess, ws, hy)
-                extra = [] if alt is None else [alt]
+                extra = ([] if alt is None else [alt]) + seeded
             else:
                 res = decide(grid, wp, res, self.poses[-1], guess, subsample(following[0], fe.wide_points), ws, hy)
             if res is None:

@@ -131,6 +131,10 @@ class LoopConfig(StrictModel):
                                      "and checked with the next one that needs it, or after `defer_distance` "
                                      "(None: optimise every closure at once), see slam.loop_batch")
     defer_distance: float = Field(8.0, gt=0, description="… at most this much path later, m")
+    defer_after_nodes: int = Field(5000, ge=0, description="… only once the graph has this many nodes: below, "
+                                   "optimising each closure at once costs < ~1 ms/scan of iSAM2 (freiburg-079, "
+                                   "4.8k scans), and deferring moves the dev logs' ATE by −4 … +47 mm either "
+                                   "way (chaotically, docs/benchmarks-slam.md, helper 14L)")
     max_built: int = Field(64, ge=1, description="frozen submaps that keep their match grids (the most "
                            "recently verified; the others rebuild theirs when verified again)")
     groups: LoopGroupConfig = LoopGroupConfig()

@@ -245,7 +245,8 @@ class LoopFinder:
             inliers: float = 1.0, rmse: float = 0.0) -> Closure:
         """Add a closure with the robust kernel, optimise, and remove it again if it stays inconsistent."""
         g, c = self.slam.graph, self.config
-        if c.defer_chi2 is not None and chi2_at(self.slam.poses, target, source, relative, covariance) <= c.defer_chi2:
+        if c.defer_chi2 is not None and len(self.slam.poses) > c.defer_after_nodes \
+                and chi2_at(self.slam.poses, target, source, relative, covariance) <= c.defer_chi2:
             k = g.add_between(target, source, relative, covariance, self.kernel_for(target, source, relative),
                               c.kernel_width)  # queued: optimised with the next batch (`flush`)
             self.deferred.append(k)

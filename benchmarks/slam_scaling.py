@@ -17,6 +17,9 @@ concatenated reference, beside the single pass's.
 
     nice -n 5 .venv/bin/python benchmarks/slam_scaling.py [--logs freiburg-079] [--passes 3] [--mode mirror]
                                                            [--chunk 1000] [--data DIR] [--no-single]
+                                                           [--write DIR]
+--write DIR only writes each long log as a CARMEN file DIR/<log>-x<passes>.log (FLASER poses = the reference,
+ODOM = the odometry at each scan), e.g. for `fleetnav slam run` on it.
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from sim.types import Pose2D  # noqa: E402
+from slam.io_carmen import format_flaser  # noqa: E402
 from slam.log_config import LogSlamConfig  # noqa: E402
 from slam.log_eval import evaluate  # noqa: E402
 from slam.log_run import LoadedLog, load_log  # noqa: E402
@@ -76,6 +81,19 @@ def long_log(log: LoadedLog, passes: int, mode: str) -> LoadedLog:
                 ref.append(log.reference[k])
         t_off += span
     return LoadedLog(recs, np.array(valid), np.array(ref) if ref else None, log.kind)
+
+
+def write_carmen(log: LoadedLog, path: Path) -> None:
+    assert log.reference is not None
+    with path.open("w", encoding="utf-8") as f:
+        f.write("# fleetnav benchmarks/slam_scaling.py: a real log played several times back to back\n")
+        for k, rec in enumerate(log.records):
+            t = rec.scan.stamp
+            if rec.odom is not None and (k == 0 or log.odom_valid[k]):
+                o = rec.odom
+                f.write(f"ODOM {o.x:.6f} {o.y:.6f} {o.yaw:.6f} 0 0 0 {t:.6f} fleetnav {t:.6f}\n")
+            ref = Pose2D(*(float(v) for v in log.reference[k]))
+            f.write(format_flaser(rec.scan, ref, ref) + "\n")
 
 
 class Clock:
@@ -160,6 +178,7 @@ def main() -> int:
     ap.add_argument("--mode", choices=("mirror", "repeat"), default="mirror")
     ap.add_argument("--chunk", type=int, default=1000)
     ap.add_argument("--no-single", action="store_true", help="skip the single-pass run")
+    ap.add_argument("--write", type=Path, default=None, help="only write the long logs (CARMEN) into this folder")
     args = ap.parse_args()
     if not args.data.is_dir():
         print(f"no data: {args.data} does not exist (the real logs live outside the repo); nothing measured")
@@ -171,6 +190,11 @@ def main() -> int:
             print(f"no log {path}; skipped")
             continue
         base = load_log(path, cfg)
+        if args.write is not None:
+            args.write.mkdir(parents=True, exist_ok=True)
+            write_carmen(long_log(base, args.passes, args.mode), args.write / f"{name}-x{args.passes}.log")
+            print(f"wrote {args.write / f'{name}-x{args.passes}.log'}")
+            continue
         res: dict[str, Any] = {"log": name, "passes": args.passes, "mode": args.mode}
         if not args.no_single:
             res["single"] = run(base, cfg, args.chunk, f"{name} x1")

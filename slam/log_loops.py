@@ -400,6 +400,8 @@ class LoopFinder:
     def _check_deferred(self) -> None:
         """After optimising: the deferred closures that failed (GTSAM) or stay inconsistent are taken out."""
         g, deferred = self.slam.graph, self.deferred
+        if not deferred:
+            return
         self.deferred, self._deferred_since = [], math.inf
         self._sync()
         bad = [k for k in deferred if k in self.active and g.chi2(k) > self.config.residual_chi2]

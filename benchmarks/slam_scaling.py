@@ -40,6 +40,7 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 from sim.types import Pose2D  # noqa: E402
+from sim.config import load_yaml  # noqa: E402
 from slam.io_carmen import format_flaser  # noqa: E402
 from slam.log_config import LogSlamConfig  # noqa: E402
 from slam.log_eval import evaluate  # noqa: E402
@@ -138,6 +139,16 @@ def run(log: LoadedLog, cfg: LogSlamConfig, chunk: int, label: str) -> dict[str,
         clock.wrap(slam.graph, meth, "isam2")
     n = len(log.records)
     rows = []
+    deferred = [0]
+    add = slam.loops.add
+
+    def counting_add(*a: Any, **kw: Any) -> Any:
+        before = len(slam.loops.deferred)
+        out = add(*a, **kw)
+        deferred[0] += len(slam.loops.deferred) > before
+        return out
+
+    slam.loops.add = counting_add  # type: ignore[method-assign]
     for k, rec in enumerate(log.records):
         clock.scan = k
         slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]),
@@ -149,6 +160,7 @@ def run(log: LoadedLog, cfg: LogSlamConfig, chunk: int, label: str) -> dict[str,
                    "loops_ms": 1000 * clock.total("loops", lo, k + 1) / m,
                    "isam2_ms": 1000 * clock.total("isam2", lo, k + 1) / m,
                    "closures": sum(c.accepted for c in slam.loops.history if lo <= c.source <= k),
+                   "deferred_total": deferred[0],
                    "rss_mb": peak_rss_mb()}
             rows.append(row)
             print(label, json.dumps({k2: round(v, 2) if isinstance(v, float) else v for k2, v in row.items()}),
@@ -178,12 +190,13 @@ def main() -> int:
     ap.add_argument("--mode", choices=("mirror", "repeat"), default="mirror")
     ap.add_argument("--chunk", type=int, default=1000)
     ap.add_argument("--no-single", action="store_true", help="skip the single-pass run")
+    ap.add_argument("--config", type=Path, default=None, help="YAML with LogSlamConfig fields")
     ap.add_argument("--write", type=Path, default=None, help="only write the long logs (CARMEN) into this folder")
     args = ap.parse_args()
     if not args.data.is_dir():
         print(f"no data: {args.data} does not exist (the real logs live outside the repo); nothing measured")
         return 0
-    cfg = LogSlamConfig()
+    cfg = load_yaml(args.config, LogSlamConfig) if args.config else LogSlamConfig()
     for name in args.logs.split(","):
         path = Path(name) if Path(name).is_file() else args.data / f"{name}-corrected.log.gz"
         if not path.is_file():

@@ -39,8 +39,8 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from sim.types import Pose2D  # noqa: E402
 from sim.config import load_yaml  # noqa: E402
+from sim.types import Pose2D  # noqa: E402
 from slam.io_carmen import format_flaser  # noqa: E402
 from slam.log_config import LogSlamConfig  # noqa: E402
 from slam.log_eval import evaluate  # noqa: E402

@@ -130,7 +130,7 @@ class LoopConfig(StrictModel):
                                      "at the estimate ≤ this) is added without optimising now; it is optimised "
                                      "and checked with the next one that needs it, or after `defer_distance` "
                                      "(None: optimise every closure at once), see slam.loop_batch")
-    defer_distance: float = Field(8.0, gt=0, description="… at most this much path later, m")
+    defer_distance: float = Field(20.0, gt=0, description="… at most this much path later, m")
     defer_after_nodes: int = Field(5000, ge=0, description="… only once the graph has this many nodes: below, "
                                    "optimising each closure at once costs < ~1 ms/scan of iSAM2 (freiburg-079, "
                                    "4.8k scans), and deferring moves the dev logs' ATE by −4 … +47 mm either "

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+from fleetnav.cli import app
 from sim.errors import FleetError
 from sim.types import Pose2D
 from slam.io_carmen import read_carmen
@@ -122,8 +124,11 @@ def test_a_raw_log_is_not_scored_against_its_own_odometry(tmp_path: Path) -> Non
         out.append(ln)
     (tmp_path / "raw.log").write_text("\n".join(out) + "\n")
     sim = run_log(tmp_path / "sim.log", tmp_path / "out_sim")
-    raw = run_log(tmp_path / "raw.log", tmp_path / "out_raw")
+    res = CliRunner().invoke(app, ["slam", "run", str(tmp_path / "raw.log"), "--out", str(tmp_path / "out_raw")])
+    assert res.exit_code == 0, res.output
+    assert "raw wheel odometry, not a reference" in res.output and "slam: ATE" not in res.output
+    raw = json.loads((tmp_path / "out_raw" / "report.json").read_text())
     assert sim["reference"]["kind"] == "independent" and "slam" in sim
     assert raw["reference"]["kind"] == "raw_odometry" and "slam" not in raw and "odometry_only" not in raw
     assert not (tmp_path / "out_raw" / "reference.tum").exists()
-    assert json.loads((tmp_path / "out_raw" / "report.json").read_text())["scans"] == 40
+    assert raw["scans"] == 40

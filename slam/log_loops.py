@@ -23,49 +23,19 @@ import numpy as np
 
 from sim.transforms import se2_between, se2_compose
 from slam import se2
-from slam.csm import MatchGrid, first_per_cell, search
+from slam.csm import search
 from slam.edge_switch import rank_edges
-from slam.icp import IcpTarget, icp
+from slam.icp import icp
 from slam.loop_batch import AnchorTable, BuiltCache, chi2_at, within
 from slam.loop_closure import descriptor_distance, ring_descriptor
-from slam.loop_coverage import Coverage, rival
+from slam.loop_coverage import rival
 from slam.loop_groups import Pending, largest_group
+from slam.loop_submap import Submap
 from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
 
 if TYPE_CHECKING:
     from slam.log_config import LoopConfig
     from slam.log_slam import LogSlam
-
-
-class Submap:
-    """Scans around an anchor, in the anchor's frame. The points, match grid and ICP target are built when first
-    verified against (many submaps never are)."""
-
-    def __init__(self, anchor: int, scans: list[tuple[se2.PoseTuple, np.ndarray]], descriptor: np.ndarray,
-                 resolution: float, sigma: float, margin: float, coverage: bool = False) -> None:
-        self.anchor, self.descriptor, self._scans = anchor, descriptor, scans
-        self._grid_args = (resolution, sigma, margin)
-        self._built: tuple[MatchGrid, IcpTarget] | None = None
-        self.coverage = Coverage(np.vstack([se2.transform_points(p, pts[::4]) for p, pts in scans]), 0.25) \
-            if coverage else None
-
-    def _build(self) -> tuple[MatchGrid, IcpTarget]:
-        if self._built is None:
-            res, sigma, margin = self._grid_args
-            pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
-            self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
-        return self._built
-
-    def release(self) -> None:
-        self._built = None
-
-    @property
-    def grid(self) -> MatchGrid:
-        return self._build()[0]
-
-    @property
-    def target(self) -> IcpTarget:
-        return self._build()[1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -127,15 +97,12 @@ class LoopFinder:
         if not self.anchors or path[i] - path[self.anchors[-1]] >= c.submap_spacing:
             self.anchors.append(i)
         # freeze submaps the robot has driven past (anchors are in path order: the unfrozen ones are a suffix)
-        while self._frozen[0] < len(self.anchors) and path[i] - path[self.anchors[self._frozen[0]]] > c.submap_distance:
-            a = self.anchors[self._frozen[0]]
-            self.submaps[a] = self._build(a, c.submap_distance, coverage=False)
-            self._frozen[0] += 1
-        while c.coverage and self._frozen[1] < len(self.anchors) \
-                and path[i] - path[self.anchors[self._frozen[1]]] > c.coverage_submap_distance:
-            a = self.anchors[self._frozen[1]]
-            self.wide[a] = self._build(a, c.coverage_submap_distance, coverage=True)
-            self._frozen[1] += 1
+        for w, (store, dist) in enumerate(((self.submaps, c.submap_distance), (self.wide, c.coverage_submap_distance))):
+            while (w == 0 or c.coverage) and self._frozen[w] < len(self.anchors) \
+                    and path[i] - path[self.anchors[self._frozen[w]]] > dist:
+                a = self.anchors[self._frozen[w]]
+                store[a] = self._build(a, dist, coverage=w == 1)
+                self._frozen[w] += 1
         if self.deferred and path[i] - self._deferred_since >= c.defer_distance:
             self.flush()
         if path[i] - self._last_try < c.every_distance or len(s.points[i]) < c.min_points:
@@ -449,6 +416,3 @@ class LoopFinder:
         self.reasons[closure.reason] += 1
         return closure
 
-
-def _thin(points: np.ndarray, spacing: float) -> np.ndarray:
-    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]

@@ -35,7 +35,9 @@ from slam.log_eval import evaluate  # noqa: E402
 from slam.log_run import load_log, run_slam, write_outputs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data" / "carmen"
+# ../shared/data/carmen beside the checkout (a git worktree may sit one level deeper)
+DATA = next((d / "shared" / "data" / "carmen" for d in ROOT.parents if (d / "shared" / "data" / "carmen").is_dir()),
+            ROOT.parent / "shared" / "data" / "carmen")
 LOG_SUFFIXES = (".log.gz", ".clf.gz", ".log", ".clf")
 
 

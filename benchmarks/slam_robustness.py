@@ -9,6 +9,9 @@ Perturbations (seeded, applied to the loaded log; the reference poses are kept, 
   range    extra range noise N(0, 0.03 m) on every return
   beams2   every 2nd beam dropped (half the angular resolution)
   noodom   no odometry at all (like orebro everywhere)
+  yawbias  a heading bias of 2° per metre driven added to the odometry (a wheel-diameter mismatch): the raw
+           chain curls up; with it, `loop_off` reports how far each accepted closure moved its scan from the
+           estimate (the drift it closed) and the path back to its submap
 
 Per log × perturbation: ATE RMSE against the reference, closures in the final graph and how many of them
 are wrong (their relative pose > 0.3 m or 2° from the reference's), split into coverage closures
@@ -96,13 +99,30 @@ def _beams2(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
     return LoadedLog(recs, log.odom_valid, log.reference, log.kind)
 
 
+def _yawbias(log: LoadedLog, rng: np.random.Generator, deg_per_m: float = 2.0) -> LoadedLog:
+    """Re-chain the odometry with every increment turned by `deg_per_m` per metre of its length."""
+    recs = list(log.records)
+    prev_raw: tuple[float, float, float] | None = None
+    prev_new: tuple[float, float, float] | None = None
+    for k, r in enumerate(recs):
+        if r.odom is None or prev_raw is None or prev_new is None:
+            prev_raw = prev_new = r.odom.as_tuple() if r.odom is not None else None
+            continue
+        raw = r.odom.as_tuple()
+        dx, dy, dt = se2_between(prev_raw, raw)
+        new = se2_compose(prev_new, (dx, dy, dt + math.radians(deg_per_m) * math.hypot(dx, dy)))
+        recs[k] = ScanRecord(r.scan, Pose2D(*new))
+        prev_raw, prev_new = raw, new
+    return LoadedLog(recs, log.odom_valid, log.reference, log.kind)
+
+
 def _noodom(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
     return LoadedLog(log.records, np.zeros_like(log.odom_valid), log.reference, log.kind)
 
 
 PERTURB: dict[str, Callable[[LoadedLog, np.random.Generator], LoadedLog]] = {
     "base": lambda log, rng: log, "drop2": _drop2, "odom": _odom, "range": _range, "beams2": _beams2,
-    "noodom": _noodom}
+    "noodom": _noodom, "yawbias": _yawbias}
 
 
 def run_one(log: LoadedLog, cfg: LogSlamConfig) -> dict[str, Any]:
@@ -117,13 +137,27 @@ def run_one(log: LoadedLog, cfg: LogSlamConfig) -> dict[str, Any]:
             coverage_pairs.add((i, sm.anchor))
         return orig_verify(self, i, sm, radius)
 
+    offs: list[tuple[float, float]] = []  # (correction m, path back to the submap m) of each accepted closure
+    orig_add = log_loops.LoopFinder.add
+
+    def add(self: log_loops.LoopFinder, target: int, source: int, relative: tuple[float, float, float],
+            *a: Any, **kw: Any) -> log_loops.Closure:
+        now = se2_compose(self.slam.poses[target], relative)
+        off = math.hypot(now[0] - self.slam.poses[source][0], now[1] - self.slam.poses[source][1])
+        c = orig_add(self, target, source, relative, *a, **kw)
+        if c.accepted:
+            offs.append((off, self.slam.path[source] - self.slam.path[target]))
+        return c
+
     log_loops.LoopFinder.verify = verify  # type: ignore[method-assign]
+    log_loops.LoopFinder.add = add  # type: ignore[method-assign]
     try:
         t0 = time.perf_counter()
         slam = run_slam(log, cfg)
         wall = time.perf_counter() - t0
     finally:
         log_loops.LoopFinder.verify = orig_verify  # type: ignore[method-assign]
+        log_loops.LoopFinder.add = orig_add  # type: ignore[method-assign]
     _, est = slam.trajectory()
     n = len(est)
     assert log.reference is not None and len(log.reference) == n
@@ -143,6 +177,10 @@ def run_one(log: LoadedLog, cfg: LogSlamConfig) -> dict[str, Any]:
             counts[kind + "_wrong"] += 1
             worst.append((err_m, c.source, c.target))
     row.update(counts)
+    big = sorted(offs, reverse=True)
+    row["loop_off"] = {"max_m": round(big[0][0], 2) if big else 0.0,
+                       "over_0.5m": sum(o > 0.5 for o, _ in big), "over_1m": sum(o > 1.0 for o, _ in big),
+                       "largest": [f"{o:.2f}m after {d:.0f}m" for o, d in big[:3]]}
     row["wrong"] = [f"{s}->{t}:{m:.2f}m" for m, s, t in sorted(worst, reverse=True)[:4]]
     return row
 

@@ -64,6 +64,9 @@ def run(
             m = report[key]
             typer.echo(f"{key:>13}: ATE {m['ate_rmse']:.3f} m, RPE consecutive "
                        f"{m['rpe_consecutive']['trans_mean']:.3f} m / {m['rpe_consecutive']['rot_mean_deg']:.2f}°")
+    ref = report.get("reference")
+    if ref and ref["kind"] in ("raw_odometry", "unknown"):  # the laser-line poses are not (known to be) a reference
+        typer.echo(f"laser-line poses: {ref['note']}")
     typer.echo(f"wrote {out}/ (map.pgm, map.yaml, map.png, trajectory.tum, trajectory_odom.tum, graph.g2o, "
                "report.json)")
 

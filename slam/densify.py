@@ -21,6 +21,7 @@ It runs once, when the log ends (`LogSlam.finish`): the online estimate, and so 
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -98,7 +99,7 @@ class Densifier:
         anchors = _every(path, c.anchor_spacing)
         keys = [k for k in _every(path, c.every_distance) if len(s.points[k]) >= lc.min_points]
         have = {(cl.target, cl.source) for cl in s.loops.active.values()} | {(a, i) for a, i, _ in self.constraints}
-        maps: dict[tuple[int, int], tuple[MatchGrid, IcpTarget]] = {}
+        maps: OrderedDict[tuple[int, int], tuple[MatchGrid, IcpTarget]] = OrderedDict()  # the recent ones only
         floor = np.diag([lc.sigma_floor_xy ** 2, lc.sigma_floor_xy ** 2, lc.sigma_floor_yaw ** 2])
         found: list[tuple[int, int, se2.PoseTuple, np.ndarray]] = []
         for i in keys:
@@ -109,6 +110,9 @@ class Densifier:
                 key = (a, -1 if c.spatial_map is None else int(path[i] // (c.min_path_separation / 4)))
                 if key not in maps:
                     maps[key] = self._map(a, i, poses, path)
+                    if len(maps) > _MAPS_KEPT:  # bounded memory on long logs (a grid is ~0.3–1 MB)
+                        maps.popitem(last=False)
+                maps.move_to_end(key)
                 grid, target = maps[key]
                 guess = se2_between(s.poses[a], s.poses[i])
                 pts = s.points[i]
@@ -156,6 +160,9 @@ class Densifier:
         pts = np.vstack([se2.transform_points(tuple(rel[n]), s.points[k]) for n, k in enumerate(idx)])
         pts = pts[first_per_cell(np.floor(pts / (lc.resolution / 2)).astype(np.int64))]
         return MatchGrid(pts, lc.resolution, lc.sigma, margin=c.window_xy + 1.0), IcpTarget.from_points(pts)
+
+
+_MAPS_KEPT = 64  # keyframes come in path order: a neighbours' map is reused by the next few, rarely later
 
 
 def _every(path: np.ndarray, spacing: float) -> list[int]:

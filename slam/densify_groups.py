@@ -25,6 +25,7 @@ from sim.transforms import se2_between
 from slam.csm import search
 from slam.icp import icp
 from slam.log_loops import Submap
+from slam.loop_batch import BuiltCache
 from slam.loop_coverage import rival
 from slam.loop_groups import Pending, largest_group
 
@@ -39,6 +40,7 @@ def coverage_matches(slam: LogSlam, config: DensifyConfig, keys: list[int]) -> l
     path, poses = np.array(s.path), s.poses
     have = {(cl.target, cl.source) for cl in s.loops.active.values()}
     built: dict[int, Submap] = {}
+    cache = BuiltCache(c.max_built)
     floor = np.diag([c.sigma_floor_xy ** 2, c.sigma_floor_xy ** 2, c.sigma_floor_yaw ** 2])
     radius = config.coverage_radius
     out: list[Pending] = []
@@ -64,6 +66,7 @@ def coverage_matches(slam: LogSlam, config: DensifyConfig, keys: list[int]) -> l
             built[a] = Submap(a, [(se2_between(poses[a], poses[k]), s.points[k]) for k in idx], np.zeros(1),
                               c.resolution, c.sigma, c.radius_max + 1.0, coverage=True)
         sm = built[a]
+        cache.touch(a, sm)  # long logs: only the recently used keep their match grids
         assert sm.coverage is not None
         guess = se2_between(poses[a], poses[i])
         seen = pts[sm.coverage.covered(pts, guess, radius)]

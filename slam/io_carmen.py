@@ -20,7 +20,14 @@ Odometry (`odometry=`):
   file order: each scan takes the latest chain sample written before its line.
 - "laser_pose": the laser lines' own pose fields (in "-corrected" logs these are the corrected poses).
 - "none": no odometry.
-The laser lines' robot poses are always exposed as `reference` (a reference, never an input).
+The laser lines' robot poses are always exposed as `reference` (a reference, never an input); what they are
+is told by `reference_kind`: "corrected" (the ODOM stream restarts at them: a Radish "-corrected" log),
+"raw_odometry" (they lie on the ODOM stream: a raw log, where they are the wheel odometry and must not be
+scored against), "independent" (neither: e.g. a simulator's true poses), "unknown" (no ODOM lines to tell)
+or "none" (RAWLASER lines carry no pose).
+Other messages (PARAM, SYNC, NEFF, TRUEPOS, SONAR, NMEA, GPS, …) are counted in `skipped`; `#` lines are
+comments; a malformed last line (a log cut off while written) is dropped and counted as "truncated"; any
+other malformed line is an error naming the file and line.
 Ranges at or beyond the maximum range, and the log's recurring maximum value (the laser's "no return"
 code), are "no return" (+inf, REP-117).
 """
@@ -58,6 +65,7 @@ class CarmenLog:
     odom_valid: np.ndarray | None = None  # (n,) bool: odometry observed motion since the previous scan
     source: str = "odom_increments"
     laser_types: dict[str, int] = field(default_factory=dict)
+    reference_kind: str = "unknown"  # what `reference` holds (see the module doc)
 
     @property
     def stamps(self) -> np.ndarray:
@@ -102,7 +110,9 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
     skipped: dict[str, int] = {}
     types: dict[str, int] = {}
     offset: tuple[float, float, float] | None = None
-    for no, line in enumerate(_open_lines(p), 1):
+    lines = _open_lines(p)
+    last = max((k for k, ln in enumerate(lines, 1) if ln.strip()), default=0)
+    for no, line in enumerate(lines, 1):
         tok = line.split()
         if not tok or tok[0].startswith("#"):
             continue
@@ -122,6 +132,9 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
             else:
                 skipped[tok[0]] = skipped.get(tok[0], 0) + 1
         except (ValueError, IndexError) as exc:
+            if no == last and types:  # a log with scans, cut off while written: drop its last line
+                skipped["truncated"] = skipped.get("truncated", 0) + 1
+                continue
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}:{no}: malformed {tok[0]} line ({exc})",
                              "see the CARMEN log format in slam/io_carmen.py") from exc
     scans = [x for x in parsed if x.kind != "ODOM"]
@@ -131,6 +144,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
     odom_lines = [(x.stamp, Pose2D(*x.pose)) for x in parsed if x.kind == "ODOM" and x.pose is not None]
     has_ref = all(s.pose is not None for s in scans)
     reference = np.array([s.pose for s in scans], dtype=np.float64) if has_ref else None
+    kind = _reference_kind(parsed, reference)
     if odometry == "odom_increments":
         poses, valid = _odom_chain(parsed)
     elif odometry == "laser_pose":
@@ -144,7 +158,40 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
     _mark_no_return([s.scan for s in scans if s.scan is not None])
     records = [ScanRecord(s.scan, None if q is None else Pose2D(*q))  # type: ignore[arg-type]
                for s, q in zip(scans, poses, strict=True)]
-    return CarmenLog(records, odom_lines, offset, skipped, reference, valid, odometry, types)
+    return CarmenLog(records, odom_lines, offset, skipped, reference, valid, odometry, types, kind)
+
+
+def _reference_kind(parsed: list[_Line], reference: np.ndarray | None) -> str:
+    """What the laser lines' poses are (see the module doc): a "-corrected" log restarts its ODOM stream at
+    (nearly) every laser line's pose with a jump from the previous ODOM; in a raw log they are the odometry at
+    the scan's time, so they lie on the ODOM stream (within what the robot moves between two ODOM samples)."""
+    if reference is None:
+        return "none"
+    odom = [x for x in parsed if x.kind == "ODOM" and x.pose is not None]
+    if len(odom) < 2:
+        return "unknown"
+    jumps, prev, laser, after = 0, None, None, False
+    on_stream = 0
+    for item in parsed:
+        if item.kind != "ODOM":
+            laser, after = item.pose, True
+            if laser is not None and prev is not None and _close(prev, laser, 0.05):
+                on_stream += 1
+            continue
+        raw = item.pose
+        assert raw is not None
+        if after and laser is not None and prev is not None and _close(raw, laser, _RESTART_TOL) \
+                and not _close(raw, prev, _RESTART_TOL):
+            jumps += 1
+        prev, after = raw, False
+    n = len(reference)
+    if jumps >= 0.1 * n:
+        return "corrected"
+    return "raw_odometry" if on_stream >= 0.9 * n else "independent"
+
+
+def _close(a: tuple[float, float, float], b: tuple[float, float, float], tol: float) -> bool:
+    return max(abs(a[0] - b[0]), abs(a[1] - b[1]), abs(math.remainder(a[2] - b[2], math.tau))) < tol
 
 
 def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | None], np.ndarray]:

@@ -126,6 +126,17 @@ class LoopConfig(StrictModel):
                                                "(None: always `kernel`), m")
     residual_chi2: float = Field(16.27, gt=0, description="remove a closure still this inconsistent (χ², "
                                  "3 dof) after optimising")
+    defer_chi2: float | None = Field(2.0, gt=0, description="a closure the estimate already satisfies (χ² "
+                                     "at the estimate ≤ this) is added without optimising now; it is optimised "
+                                     "and checked with the next one that needs it, or after `defer_distance` "
+                                     "(None: optimise every closure at once), see slam.loop_batch")
+    defer_distance: float = Field(20.0, gt=0, description="… at most this much path later, m")
+    defer_after_nodes: int = Field(5000, ge=0, description="… only once the graph has this many nodes: below, "
+                                   "optimising each closure at once costs < ~1 ms/scan of iSAM2 (freiburg-079, "
+                                   "4.8k scans), and deferring moves the dev logs' ATE by −4 … +47 mm either "
+                                   "way (chaotically, docs/benchmarks-slam.md, helper 14L)")
+    max_built: int = Field(64, ge=1, description="frozen submaps that keep their match grids (the most "
+                           "recently verified; the others rebuild theirs when verified again)")
     groups: LoopGroupConfig = LoopGroupConfig()
     edge_switch: EdgeSwitchConfig = EdgeSwitchConfig()
 

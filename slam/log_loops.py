@@ -12,6 +12,7 @@ their matches must stand out from shifted poses, and a weak one waits for a loop
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import Counter
 from dataclasses import dataclass
@@ -22,45 +23,19 @@ import numpy as np
 
 from sim.transforms import se2_between, se2_compose
 from slam import se2
-from slam.csm import MatchGrid, first_per_cell, search
+from slam.csm import search
 from slam.edge_switch import rank_edges
-from slam.icp import IcpTarget, icp
+from slam.icp import icp
+from slam.loop_batch import AnchorTable, BuiltCache, chi2_at, within
 from slam.loop_closure import descriptor_distance, ring_descriptor
-from slam.loop_coverage import Coverage, rival
+from slam.loop_coverage import rival
 from slam.loop_groups import Pending, largest_group
+from slam.loop_submap import Submap
 from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
 
 if TYPE_CHECKING:
     from slam.log_config import LoopConfig
     from slam.log_slam import LogSlam
-
-
-class Submap:
-    """Scans around an anchor, in the anchor's frame. The points, match grid and ICP target are built when first
-    verified against (many submaps never are)."""
-
-    def __init__(self, anchor: int, scans: list[tuple[se2.PoseTuple, np.ndarray]], descriptor: np.ndarray,
-                 resolution: float, sigma: float, margin: float, coverage: bool = False) -> None:
-        self.anchor, self.descriptor, self._scans = anchor, descriptor, scans
-        self._grid_args = (resolution, sigma, margin)
-        self._built: tuple[MatchGrid, IcpTarget] | None = None
-        self.coverage = Coverage(np.vstack([se2.transform_points(p, pts[::4]) for p, pts in scans]), 0.25) \
-            if coverage else None
-
-    def _build(self) -> tuple[MatchGrid, IcpTarget]:
-        if self._built is None:
-            res, sigma, margin = self._grid_args
-            pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
-            self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
-        return self._built
-
-    @property
-    def grid(self) -> MatchGrid:
-        return self._build()[0]
-
-    @property
-    def target(self) -> IcpTarget:
-        return self._build()[1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,6 +74,11 @@ class LoopFinder:
         self._old_edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
         self.switched: list[int] = []  # front-end edges moved to their alternative peak by a loop group
         self._floor = np.diag([config.sigma_floor_xy ** 2, config.sigma_floor_xy ** 2, config.sigma_floor_yaw ** 2])
+        self._frozen = [0, 0]  # anchors[:n] have their submap / coverage submap (anchors are in path order)
+        self._tables = (AnchorTable(), AnchorTable())  # submaps', coverage submaps' anchors
+        self._cache = BuiltCache(config.max_built)
+        self.deferred: list[int] = []  # factor indices of closures added without optimising (`slam.loop_batch`)
+        self._deferred_since = math.inf
 
     @property
     def accepted(self) -> int:
@@ -116,11 +96,15 @@ class LoopFinder:
         path = s.path
         if not self.anchors or path[i] - path[self.anchors[-1]] >= c.submap_spacing:
             self.anchors.append(i)
-        for a in self.anchors:  # freeze submaps the robot has driven past
-            if a not in self.submaps and path[i] - path[a] > c.submap_distance:
-                self.submaps[a] = self._build(a, c.submap_distance, coverage=False)
-            if c.coverage and a not in self.wide and path[i] - path[a] > c.coverage_submap_distance:
-                self.wide[a] = self._build(a, c.coverage_submap_distance, coverage=True)
+        # freeze submaps the robot has driven past (anchors are in path order: the unfrozen ones are a suffix)
+        for w, (store, dist) in enumerate(((self.submaps, c.submap_distance), (self.wide, c.coverage_submap_distance))):
+            while (w == 0 or c.coverage) and self._frozen[w] < len(self.anchors) \
+                    and path[i] - path[self.anchors[self._frozen[w]]] > dist:
+                a = self.anchors[self._frozen[w]]
+                store[a] = self._build(a, dist, coverage=w == 1)
+                self._frozen[w] += 1
+        if self.deferred and path[i] - self._deferred_since >= c.defer_distance:
+            self.flush()
         if path[i] - self._last_try < c.every_distance or len(s.points[i]) < c.min_points:
             return
         self._last_try = path[i]
@@ -131,8 +115,10 @@ class LoopFinder:
 
     def _build(self, a: int, distance: float, coverage: bool) -> Submap:
         s, c = self.slam, self.config
-        path = np.array(s.path)
-        idx = np.nonzero(np.abs(path - path[a]) <= distance)[0]
+        lo = max(bisect.bisect_left(s.path, s.path[a] - distance) - 1, 0)  # path is non-decreasing: a slice
+        hi = bisect.bisect_right(s.path, s.path[a] + distance) + 1
+        path = np.array(s.path[lo:hi])
+        idx = lo + np.nonzero(np.abs(path - s.path[a]) <= distance)[0]
         idx = idx[idx <= len(s.poses) - 1]
         if len(idx) > 40:
             idx = idx[np.linspace(0, len(idx) - 1, 40).astype(int)]
@@ -147,20 +133,18 @@ class LoopFinder:
         path = s.path
         here = s.poses[i]
         found: list[tuple[float, int, float]] = []
-        for a, sm in self.submaps.items():
-            sep = path[i] - path[a]
-            if sep < c.min_path_separation + c.submap_distance:
-                continue
-            drift = min(sep, path[i] - self._last_closure_path + c.submap_distance)
-            radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
-            p = s.poses[a]
-            d = math.hypot(p[0] - here[0], p[1] - here[1])
-            if d > radius + c.submap_distance:
-                continue
-            desc = float(descriptor_distance(sm.descriptor, self.descriptor(i))[0])
+        keys, apath, axy = self._tables[0].get(self.submaps, self.slam.poses, self.slam.path)
+        sep = path[i] - apath
+        drift = np.minimum(sep, path[i] - self._last_closure_path + c.submap_distance)
+        radius = np.minimum(c.radius_max, c.radius_base + c.radius_drift * drift)
+        dist = np.hypot(axy[:, 0] - here[0], axy[:, 1] - here[1]) if len(keys) else np.zeros(0)
+        for n in np.nonzero((sep >= c.min_path_separation + c.submap_distance)
+                            & (dist <= radius + c.submap_distance))[0]:
+            a = int(keys[n])
+            desc = float(descriptor_distance(self.submaps[a].descriptor, self.descriptor(i))[0])
             if desc > c.descriptor_max_distance:
                 continue
-            found.append((desc + 0.02 * d, a, radius))
+            found.append((desc + 0.02 * float(dist[n]), a, float(radius[n])))
         found.sort()
         if not found and c.coverage:
             return self._covering(i)
@@ -170,11 +154,12 @@ class LoopFinder:
         c, s = self.config, self.slam
         path, here, probe = s.path, s.poses[i], self._probe(i)
         found: list[tuple[float, int, float]] = []
-        for a, sm in self.wide.items():
-            sep = path[i] - path[a]
-            p = s.poses[a]
-            if sep < c.min_path_separation + c.coverage_submap_distance or sm.coverage is None or \
-                    math.hypot(p[0] - here[0], p[1] - here[1]) > c.coverage_reach:
+        keys, apath, axy = self._tables[1].get(self.wide, self.slam.poses, self.slam.path)
+        near = within(axy, here, c.coverage_reach) \
+            & (path[i] - apath >= c.min_path_separation + c.coverage_submap_distance)
+        for a in keys[near].tolist():
+            sm, sep, p = self.wide[a], path[i] - path[a], s.poses[a]
+            if sm.coverage is None:
                 continue
             drift = min(sep, path[i] - self._last_closure_path + c.coverage_submap_distance)
             radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
@@ -197,6 +182,7 @@ class LoopFinder:
             if len(pts) < c.min_points:
                 return self._record(Closure(i, a, guess, 0.0, 0.0, math.inf, False, "too_few_covered"))
         n, angle_range = (120, 10.0) if sm.coverage is None else (c.coverage_points, c.coverage_angle_range)
+        self._cache.touch(2 * a + (sm.coverage is not None), sm)
         sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), n)).astype(int)]
         weak = c.weak_min_score if sm.coverage is not None and self.config.groups.enabled else None
         res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window,
@@ -225,10 +211,21 @@ class LoopFinder:
     def add(self, target: int, source: int, relative: se2.PoseTuple, covariance: np.ndarray, score: float = 1.0,
             inliers: float = 1.0, rmse: float = 0.0) -> Closure:
         """Add a closure with the robust kernel, optimise, and remove it again if it stays inconsistent."""
-        g = self.slam.graph
+        g, c = self.slam.graph, self.config
+        if c.defer_chi2 is not None and len(self.slam.poses) > c.defer_after_nodes \
+                and chi2_at(self.slam.poses, target, source, relative, covariance) <= c.defer_chi2:
+            k = g.add_between(target, source, relative, covariance, self.kernel_for(target, source, relative),
+                              c.kernel_width)  # queued: optimised with the next batch (`flush`)
+            self.deferred.append(k)
+            self._deferred_since = min(self._deferred_since, self.slam.path[source])
+            self._last_closure_path = self.slam.path[source]
+            closure = Closure(source, target, relative, score, inliers, rmse, True, "accepted")
+            self._activate(k, closure, covariance)
+            return self._record(closure)
         k = g.add_between(target, source, relative, covariance, self.kernel_for(target, source, relative),
                           self.config.kernel_width)
         g.converge(max_steps=20)
+        self._check_deferred()
         if g.removed(k):  # GTSAM could not solve the graph with it (`PoseGraph._repair`)
             self._sync()
             self.slam.refresh_poses()
@@ -255,6 +252,7 @@ class LoopFinder:
         match that took the wrong peak (`slam.edge_switch`): that edge is moved to its alternative peak and
         the group tried again. Accepted closures the group contradicts are removed only if outvoted."""
         gc, s = self.config.groups, self.slam
+        self.flush()
         self.pending.append(new)
         del self.pending[: max(0, len(self.pending) - gc.max_pending)]
         members = [self.pending[m] for m in largest_group(self.pending, len(self.pending) - 1, s.poses, s.path, gc)]
@@ -358,6 +356,31 @@ class LoopFinder:
         g.converge(max_steps=50)
         self.slam.refresh_poses()
 
+    def flush(self) -> None:
+        """Optimise the deferred closures (`slam.loop_batch`) and remove any that is still inconsistent."""
+        if not self.deferred:
+            return
+        self.slam.graph.converge(max_steps=20)
+        self._check_deferred()
+        self.slam.refresh_poses()
+
+    def _check_deferred(self) -> None:
+        """After optimising: the deferred closures that failed (GTSAM) or stay inconsistent are taken out."""
+        g, deferred = self.slam.graph, self.deferred
+        if not deferred:
+            return
+        self.deferred, self._deferred_since = [], math.inf
+        self._sync()
+        bad = [k for k in deferred if k in self.active and g.chi2(k) > self.config.residual_chi2]
+        for k in bad:
+            c = self.active[k]
+            g.remove(k)
+            self._deactivate(k)
+            self._record(Closure(c.source, c.target, c.relative, c.score, c.inliers, c.rmse, False,
+                                 "inconsistent_after_optimisation"))
+        if bad:
+            g.converge(max_steps=20)
+
     def _sync(self) -> None:
         """Take out of `active` (and record) accepted closures a failed GTSAM step dropped."""
         for k in [k for k in self.active if self.slam.graph.removed(k)]:
@@ -393,6 +416,3 @@ class LoopFinder:
         self.reasons[closure.reason] += 1
         return closure
 
-
-def _thin(points: np.ndarray, spacing: float) -> np.ndarray:
-    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]

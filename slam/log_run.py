@@ -36,6 +36,7 @@ class LoadedLog:
     odom_valid: np.ndarray
     reference: np.ndarray | None
     kind: str
+    reference_kind: str = "none"  # CARMEN: what the laser lines' poses are (`slam.io_carmen`)
 
 
 def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:
@@ -46,7 +47,7 @@ def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:
 
         log = read_carmen(p, odometry=config.odometry, laser=config.laser, max_range=80.0)
         valid = log.odom_valid if log.odom_valid is not None else np.zeros(len(log.records), dtype=bool)
-        return LoadedLog(log.records, valid, log.reference, "carmen")
+        return LoadedLog(log.records, valid, log.reference, "carmen", log.reference_kind)
     if name.endswith(".mcap"):
         from slam.io_mcap import read_mcap_scans
 
@@ -103,7 +104,10 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         "ms_per_scan_p95": float(np.percentile(slam.stats.times, 95) * 1000) if slam.stats.times else 0.0,
         "wall_s": wall, "log_duration_s": span, "real_time_factor": span / wall if wall > 0 and span > 0 else None,
     }
-    if log.reference is not None and len(log.reference) == n:
+    if log.reference is not None:
+        report["reference"] = {"source": "laser-line poses", "kind": log.reference_kind,
+                               "note": _REFERENCE_NOTES.get(log.reference_kind, "")}
+    if log.reference is not None and len(log.reference) == n and log.reference_kind != "raw_odometry":
         write_tum(out_dir / "reference.tum", stamps, log.reference)
         report["slam"] = evaluate(est, log.reference)
         report["odometry_only"] = evaluate(odo, log.reference)
@@ -111,6 +115,15 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         save_overlay(slam.map(log.reference), slam.map(aligned), out_dir / "overlay.png")
     (out_dir / "report.json").write_text(json.dumps(report, indent=1), encoding="utf-8")
     return report
+
+
+_REFERENCE_NOTES = {
+    "corrected": "the ODOM stream restarts at them: corrected poses (Radish -corrected log)",
+    "raw_odometry": "they lie on the ODOM stream: raw wheel odometry, not a reference; no ATE/RPE reported",
+    "independent": "not on the ODOM stream (e.g. a simulator's true poses): scored as a reference",
+    "unknown": "no ODOM lines to tell whether they are corrected poses or raw odometry: ATE/RPE against them "
+               "may only measure the distance to the raw odometry",
+}
 
 
 def run_log(path: str | Path, out: str | Path, config: LogSlamConfig | None = None,

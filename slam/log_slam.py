@@ -11,6 +11,7 @@ with a loose σ. Loop closures are `slam.log_loops`; the graph is GTSAM's
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from collections.abc import Sequence
@@ -307,12 +308,14 @@ class LogSlam:
                  or abs(moved[2]) > 0.05 or fill != self._local_filled)
         if not stale and self._local is not None:
             return self._local
-        path = np.array(self.path)
-        idx = np.nonzero(path >= path[-1] - fe.local_map_distance)[0]
+        lo = max(bisect.bisect_left(self.path, self.path[-1] - fe.local_map_distance) - 1, 0)  # O(window), not O(n)
+        path = np.array(self.path[lo:])
+        idx = lo + np.nonzero(path >= path[-1] - fe.local_map_distance)[0]
         if fe.local_map_min_log_odds is not None:
             # the first scan of every path bucket: a choice that stays put as the window slides, so each scan
             # is ray-cast into the evidence once when it enters and once when it leaves
-            bucket = np.floor(path[idx] / (fe.local_map_distance / max(fe.local_map_scans - 1, 1))).astype(np.int64)
+            span = fe.local_map_distance / max(fe.local_map_scans - 1, 1)
+            bucket = np.floor(path[idx - lo] / span).astype(np.int64)
             idx = idx[np.unique(bucket, return_index=True)[1]]
         if len(idx) > fe.local_map_scans:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
@@ -359,6 +362,7 @@ class LogSlam:
         """Converge iSAM2, densify (`slam.densify`), then (config.final_batch) one Levenberg-Marquardt pass over
         the whole graph."""
         c0 = time.process_time()
+        self.loops.flush()  # closures still deferred (`slam.loop_batch`) are optimised and checked
         self.graph.converge()
         if self.config.densify.enabled and self.config.loops.enabled:
             self.refresh_poses()

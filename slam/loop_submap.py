@@ -1,0 +1,45 @@
+"""A loop-closure submap: scans around an anchor scan, frozen in the anchor's frame (`slam.log_loops`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam import se2
+from slam.csm import MatchGrid, first_per_cell
+from slam.icp import IcpTarget
+from slam.loop_coverage import Coverage
+
+
+class Submap:
+    """Scans around an anchor, in the anchor's frame. The points, match grid and ICP target are built when first
+    verified against (many submaps never are)."""
+
+    def __init__(self, anchor: int, scans: list[tuple[se2.PoseTuple, np.ndarray]], descriptor: np.ndarray,
+                 resolution: float, sigma: float, margin: float, coverage: bool = False) -> None:
+        self.anchor, self.descriptor, self._scans = anchor, descriptor, scans
+        self._grid_args = (resolution, sigma, margin)
+        self._built: tuple[MatchGrid, IcpTarget] | None = None
+        self.coverage = Coverage(np.vstack([se2.transform_points(p, pts[::4]) for p, pts in scans]), 0.25) \
+            if coverage else None
+
+    def _build(self) -> tuple[MatchGrid, IcpTarget]:
+        if self._built is None:
+            res, sigma, margin = self._grid_args
+            pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
+            self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
+        return self._built
+
+    def release(self) -> None:
+        self._built = None
+
+    @property
+    def grid(self) -> MatchGrid:
+        return self._build()[0]
+
+    @property
+    def target(self) -> IcpTarget:
+        return self._build()[1]
+
+
+def _thin(points: np.ndarray, spacing: float) -> np.ndarray:
+    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]

@@ -26,6 +26,7 @@ from slam import se2
 from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.densify import Densifier
+from slam.deskew import InterlaceDeskew
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
@@ -94,6 +95,7 @@ class LogSlam:
         self._wide = False
         self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
         self._mixtures: dict[int, object] = {}  # node → its incoming max-mixture edge (kept alive here)
+        self._deskew = InterlaceDeskew(cfg.frontend.deskew) if cfg.frontend.deskew.enabled else None
         self.loops = LoopFinder(cfg.loops, self)
         self.densifier = Densifier(cfg.densify, self)
         fe = cfg.frontend
@@ -112,9 +114,9 @@ class LogSlam:
         cfg = self.config
         self._following = [] if lookahead is None else [lookahead] if isinstance(lookahead, LidarScan) \
             else list(lookahead)
-        pts, no_ret = self._preprocess(scan)
         o = odom.as_tuple() if odom is not None else None
         i = len(self.poses)
+        pts, no_ret = self._preprocess(scan, self._velocity(scan.stamp, o, odom_valid))
         if i == 0:
             pose = self._start
             self.graph.add_pose(pose)
@@ -153,12 +155,34 @@ class LogSlam:
         self.stamps.append(stamp)
         self.path.append(path)
 
-    def _preprocess(self, scan: LidarScan) -> tuple[np.ndarray, np.ndarray]:
+    def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool) -> se2.PoseTuple | None:
+        """(vx, vy, ω) in the sensor frame at this scan: the odometry step, else the last estimated step, over
+        the stamps' interval (None without usable stamps)."""
+        if self._deskew is None or not self.poses:
+            return None
+        dt = stamp - self.stamps[-1]
+        if odom_valid and odom is not None and self.odometry[-1] is not None:
+            step = se2_between(self.odometry[-1], odom)
+        elif len(self.poses) >= 2:
+            step, dt = se2_between(self.poses[-2], self.poses[-1]), self.stamps[-1] - self.stamps[-2]
+        else:
+            return None
+        if not 1e-3 < dt < 1.0:
+            return None
+        return (step[0] / dt, step[1] / dt, step[2] / dt)
+
+    def _preprocess(self, scan: LidarScan, velocity: se2.PoseTuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Valid returns as points (deskewed if `frontend.deskew` and `velocity` is known), thinned, and the
+        angles of the beams without a return."""
         cfg = self.config
         r = scan.ranges
         ang = scan.angles()
         ok = np.isfinite(r) & (r >= max(cfg.min_range, scan.range_min)) & (r <= min(cfg.max_range, scan.range_max))
         pts = np.column_stack([r[ok] * np.cos(ang[ok]), r[ok] * np.sin(ang[ok])])
+        if self._deskew is not None and velocity is not None:
+            odd = (np.nonzero(ok)[0] % 2) == 1
+            self._deskew.observe(pts, r[ok], odd, velocity[2])
+            pts = self._deskew.apply(pts, odd, velocity)
         return thin(pts, cfg.point_spacing), ang[~np.isfinite(r)]
 
     def _match(self, pts: np.ndarray, guess: se2.PoseTuple, has_odom: bool, delta: se2.PoseTuple

@@ -1,0 +1,96 @@
+"""Interlaced-scan deskewing, with the interlace delay estimated from the scans themselves.
+
+A SICK LMS at 0.5° (or 0.25°) resolution builds one scan from two (four) sweeps of its mirror, 13.3 ms apart
+at 75 Hz: the even beams come from one sweep and the odd beams from the next. While the robot turns, the two
+halves are rotated against each other by ω·T (measured on freiburg-079: odd vs even beams 0.48° apart at
+ω > 0.4 rad/s, T ≈ 14 ms), so every wall is seen twice, 4 cm apart at 5 m. The scan matcher then fits the
+blur, and the local map is built from blurred scans.
+
+Nothing in a CARMEN FLASER line says whether the scan is interlaced, nor which half comes first. So the delay
+is estimated online: on scans taken while turning, the odd beams are matched to the even beams (point-to-line
+ICP) and their relative heading regressed on the turn rate, yaw = T·ω + c (c absorbs any constant offset
+between the halves, e.g. a beam layout half a step off). Once that fit is significant, every scan's odd beams
+are moved into the even beams' frame by the motion over T (a constant velocity: (v·T, 0, ω·T)). A scan from
+a single sweep (a 1° SICK, any scanner that is not interlaced) gives T ≈ 0 and is left as it is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydantic import Field
+
+from sim.config import StrictModel
+from slam import se2
+from slam.icp import IcpTarget, icp
+
+
+class DeskewConfig(StrictModel):
+    """`frontend.deskew`: interlaced-scan deskewing (`slam.deskew`)."""
+
+    enabled: bool = Field(False, description="estimate the delay between a scan's even and odd beams online "
+                          "and move the odd beams by the motion over it")
+    min_rate: float = Field(0.1, gt=0, description="scans turning at least this fast are used for the "
+                            "estimate, rad/s")
+    min_samples: int = Field(30, ge=5, description="… and the delay is used once this many agree")
+    max_samples: int = Field(400, ge=5, description="… and no more are matched (CPU)")
+    min_t_ratio: float = Field(4.0, gt=0, description="… significantly: |T| ≥ this × its standard error")
+    max_delay: float = Field(0.05, gt=0, description="a fit beyond ± this is not an interlace, s")
+    max_range: float = Field(8.0, gt=0, description="returns used for the even/odd match, m")
+    min_points: int = Field(60, ge=10, description="… at least this many per half")
+
+
+class InterlaceDeskew:
+    def __init__(self, config: DeskewConfig) -> None:
+        self.config = config
+        self._rows: list[tuple[float, float]] = []  # (ω rad/s, odd-vs-even yaw rad)
+        self._delay: tuple[int, float] = (-1, 0.0)  # (samples it was fitted on, T)
+
+    @property
+    def samples(self) -> int:
+        return len(self._rows)
+
+    def delay(self) -> float:
+        """T in s (0 until the fit is significant): the odd beams are taken T after the even ones."""
+        if self._delay[0] != len(self._rows):
+            self._delay = (len(self._rows), self._fit())
+        return self._delay[1]
+
+    def _fit(self) -> float:
+        cfg = self.config
+        if len(self._rows) < cfg.min_samples:
+            return 0.0
+        a = np.array(self._rows)
+        x = np.column_stack([a[:, 0], np.ones(len(a))])
+        coef, *_ = np.linalg.lstsq(x, a[:, 1], rcond=None)
+        dof = max(len(a) - 2, 1)
+        s2 = float(np.sum((a[:, 1] - x @ coef) ** 2)) / dof
+        se = math.sqrt(s2 * float(np.linalg.inv(x.T @ x)[0, 0]))
+        t = float(coef[0])
+        if abs(t) > cfg.max_delay or abs(t) < cfg.min_t_ratio * se:
+            return 0.0
+        return t
+
+    def observe(self, points: np.ndarray, ranges: np.ndarray, odd: np.ndarray, omega: float) -> None:
+        """One scan (sensor-frame points, their ranges, which are odd beams) taken turning at ω rad/s."""
+        cfg = self.config
+        if abs(omega) < cfg.min_rate or len(self._rows) >= cfg.max_samples:
+            return
+        near = ranges <= cfg.max_range
+        ev, od = points[near & ~odd], points[near & odd]
+        if len(ev) < cfg.min_points or len(od) < cfg.min_points:
+            return
+        fit = icp(od, IcpTarget.from_points(ev), (0.0, 0.0, 0.0), max_correspondence=0.1, inlier_distance=0.1)
+        if fit.converged and fit.inlier_ratio > 0.5:
+            self._rows.append((omega, float(fit.pose[2])))
+
+    def apply(self, points: np.ndarray, odd: np.ndarray, velocity: se2.PoseTuple) -> np.ndarray:
+        """The odd beams' points moved into the even beams' frame by the motion over the delay (`velocity`:
+        vx, vy in m/s and ω in rad/s, sensor frame)."""
+        t = self.delay()
+        if t == 0.0 or not odd.any():
+            return points
+        out = points.copy()
+        out[odd] = se2.transform_points((velocity[0] * t, velocity[1] * t, velocity[2] * t), points[odd])
+        return out

@@ -1,0 +1,82 @@
+"""Interlaced-scan deskewing (slam.deskew) against ground truth: scans whose odd beams are cast from the pose the
+robot reaches T later, as a SICK at 0.5° builds them from two mirror sweeps."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim.types import Pose2D
+from slam import se2
+from slam.deskew import DeskewConfig, InterlaceDeskew
+from slam.icp import IcpTarget, icp
+from slam.log_config import LogSlamConfig
+from slam.log_slam import LogSlam
+from tests.slam import synth
+
+T = 0.014  # s: the odd sweep comes this long after the even one
+
+
+def _interlaced(segs: np.ndarray, pose: Pose2D, v: float, omega: float, delay: float, rng: np.random.Generator
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(points, ranges, odd) of one 720-beam scan: even beams from `pose`, odd beams from the pose `delay` later."""
+    later = se2.transform_points(pose.as_tuple(), np.array([[v * delay, 0.0]]))[0]
+    late = Pose2D(float(later[0]), float(later[1]), pose.yaw + omega * delay)
+    r0 = synth.raycast(segs, pose, beams=720, noise=0.005, rng=rng)
+    r1 = synth.raycast(segs, late, beams=720, noise=0.005, rng=rng)
+    ranges = r0.ranges.copy()
+    ranges[1::2] = r1.ranges[1::2]  # beam k of the later scan is at the same angle in *its* frame
+    ang = r0.angles()
+    ok = np.isfinite(ranges)
+    pts = np.column_stack([ranges[ok] * np.cos(ang[ok]), ranges[ok] * np.sin(ang[ok])])
+    return pts, ranges[ok], (np.nonzero(ok)[0] % 2) == 1
+
+
+def _calibrated(delay: float) -> InterlaceDeskew:
+    segs, rng = synth.room(), np.random.default_rng(7)
+    d = InterlaceDeskew(DeskewConfig(enabled=True, min_samples=20))
+    for k in range(30):
+        pose = Pose2D(6.0 + 0.2 * (k % 7), 4.0 + 0.1 * (k % 5), 0.3 * k)
+        omega = (0.3 + 0.05 * (k % 6)) * (1 if k % 2 else -1)
+        pts, ranges, odd = _interlaced(segs, pose, 0.4, omega, delay, rng)
+        d.observe(pts, ranges, odd, omega)
+    return d
+
+
+def test_the_delay_is_estimated_from_the_scans_and_deskewing_removes_the_blur() -> None:
+    d = _calibrated(T)
+    assert d.samples == 30
+    assert abs(d.delay() - T) < 0.15 * T
+    segs, rng = synth.room(), np.random.default_rng(11)
+    pose, v, omega = Pose2D(9.0, 5.5, 0.7), 0.5, 0.6  # a fast turn: the halves are 0.48° apart
+    pts, _, odd = _interlaced(segs, pose, v, omega, T, rng)
+    truth = synth.raycast(segs, pose, beams=720).points()  # the even sweep's pose, noise-free
+    target = IcpTarget.from_points(truth)
+
+    def wall_offset(p: np.ndarray) -> float:  # RMS distance of the odd beams' points to the true surfaces
+        dist, _ = target.tree.query(p[odd])
+        return float(np.sqrt(np.mean(np.minimum(dist, 0.2) ** 2)))
+
+    fixed = d.apply(pts, odd, (v, 0.0, omega))
+    assert wall_offset(fixed) < 0.5 * wall_offset(pts)
+    err = []
+    for p in (pts, fixed):
+        fit = icp(p, target, (0.01, -0.01, 0.005), max_correspondence=0.15, inlier_distance=0.15)
+        err.append(abs(fit.pose[2]))
+    assert err[1] < 0.5 * err[0]  # the raw scan's heading sits between the two sweeps'
+
+
+def test_a_scan_from_one_sweep_is_left_alone() -> None:
+    d = _calibrated(0.0)
+    assert d.delay() == 0.0
+    pts = np.array([[1.0, 0.0], [2.0, 1.0], [3.0, -1.0]])
+    assert np.array_equal(d.apply(pts, np.array([False, True, True]), (0.5, 0.0, 0.8)), pts)
+
+
+def test_log_slam_deskews_only_with_the_option() -> None:
+    cfg = LogSlamConfig()
+    assert cfg.frontend.deskew.enabled is False
+    on = LogSlam(LogSlamConfig.model_validate({"frontend": {"deskew": {"enabled": True}}}))
+    assert on._deskew is not None and LogSlam(cfg)._deskew is None
+    assert math.isclose(on._deskew.config.min_rate, 0.1)

@@ -167,7 +167,7 @@ class LogSlam:
             step, dt = se2_between(self.poses[-2], self.poses[-1]), self.stamps[-1] - self.stamps[-2]
         else:
             return None
-        if not 1e-3 < dt < 1.0:
+        if not 1e-3 < dt < self.config.frontend.deskew.max_interval:
             return None
         return (step[0] / dt, step[1] / dt, step[2] / dt)
 

@@ -22,6 +22,7 @@ import numpy as np
 from pydantic import Field
 
 from sim.config import StrictModel
+from sim.transforms import se2_between
 from slam import se2
 from slam.icp import IcpTarget, icp
 
@@ -90,6 +91,12 @@ class InterlaceDeskew:
         if fit.converged and fit.inlier_ratio > 0.5:
             self._rows.append((omega, float(fit.pose[2])))
 
+    def process(self, points: np.ndarray, ranges: np.ndarray, odd: np.ndarray, velocity: se2.PoseTuple
+                ) -> np.ndarray:
+        """`observe` the scan, then `apply` the delay learnt so far."""
+        self.observe(points, ranges, odd, velocity[2])
+        return self.apply(points, odd, velocity)
+
     def apply(self, points: np.ndarray, odd: np.ndarray, velocity: se2.PoseTuple) -> np.ndarray:
         """The odd beams' points moved into the even beams' frame by the motion over the delay (`velocity`:
         vx, vy in m/s and ω in rad/s, sensor frame)."""
@@ -99,3 +106,20 @@ class InterlaceDeskew:
         out = points.copy()
         out[odd] = se2.transform_points((velocity[0] * t, velocity[1] * t, velocity[2] * t), points[odd])
         return out
+
+
+def step_velocity(stamp: float, stamps: list[float], prev_odom: se2.PoseTuple | None, odom: se2.PoseTuple | None,
+                  poses: list[se2.PoseTuple], max_interval: float) -> se2.PoseTuple | None:
+    """(vx, vy, ω) in the sensor frame at a scan: its odometry step (`prev_odom` → `odom`), else the last
+    estimated step (`poses`), over the stamps' interval; None without usable stamps or over a longer interval
+    than `max_interval`."""
+    dt = stamp - stamps[-1]
+    if prev_odom is not None and odom is not None:
+        step = se2_between(prev_odom, odom)
+    elif len(poses) >= 2:
+        step, dt = se2_between(poses[-2], poses[-1]), stamps[-1] - stamps[-2]
+    else:
+        return None
+    if not 1e-3 < dt < max_interval:
+        return None
+    return (step[0] / dt, step[1] / dt, step[2] / dt)

@@ -90,7 +90,9 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         "log": source, "kind": log.kind, "scans": n, "odometry": slam.config.odometry,
         "odometry_steps_missing": int((~log.odom_valid[1:]).sum()) if n > 1 else 0,
         "front_end": {"matched": slam.stats.matched, "wide_window": slam.stats.wide,
-                      "odometry_only": slam.stats.odometry_only, "ambiguous": slam.stats.ambiguous},
+                      "odometry_only": slam.stats.odometry_only, "ambiguous": slam.stats.ambiguous,
+                      # the interlace delay learnt by `slam.deskew` (0: the scans were left as they are)
+                      "deskew_delay_ms": 1000 * slam.deskew_delay},
         "loop_closures": {"accepted": sum(c.accepted for c in closures),
                           "rejected": sum(not c.accepted for c in closures),
                           "reasons": dict(slam.loops.reasons), "list": [c.as_dict() for c in closures]},

@@ -26,7 +26,7 @@ from slam import se2
 from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.densify import Densifier
-from slam.deskew import InterlaceDeskew
+from slam.deskew import InterlaceDeskew, step_velocity
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
@@ -156,20 +156,10 @@ class LogSlam:
         self.path.append(path)
 
     def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool) -> se2.PoseTuple | None:
-        """(vx, vy, ω) in the sensor frame at this scan: the odometry step, else the last estimated step, over
-        the stamps' interval (None without usable stamps)."""
         if self._deskew is None or not self.poses:
             return None
-        dt = stamp - self.stamps[-1]
-        if odom_valid and odom is not None and self.odometry[-1] is not None:
-            step = se2_between(self.odometry[-1], odom)
-        elif len(self.poses) >= 2:
-            step, dt = se2_between(self.poses[-2], self.poses[-1]), self.stamps[-1] - self.stamps[-2]
-        else:
-            return None
-        if not 1e-3 < dt < self.config.frontend.deskew.max_interval:
-            return None
-        return (step[0] / dt, step[1] / dt, step[2] / dt)
+        return step_velocity(stamp, self.stamps, self.odometry[-1] if odom_valid else None, odom, self.poses,
+                             self._deskew.config.max_interval)
 
     def _preprocess(self, scan: LidarScan, velocity: se2.PoseTuple | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Valid returns as points (deskewed if `frontend.deskew` and `velocity` is known), thinned, and the
@@ -180,9 +170,7 @@ class LogSlam:
         ok = np.isfinite(r) & (r >= max(cfg.min_range, scan.range_min)) & (r <= min(cfg.max_range, scan.range_max))
         pts = np.column_stack([r[ok] * np.cos(ang[ok]), r[ok] * np.sin(ang[ok])])
         if self._deskew is not None and velocity is not None:
-            odd = (np.nonzero(ok)[0] % 2) == 1
-            self._deskew.observe(pts, r[ok], odd, velocity[2])
-            pts = self._deskew.apply(pts, odd, velocity)
+            pts = self._deskew.process(pts, r[ok], (np.nonzero(ok)[0] % 2) == 1, velocity)
         return thin(pts, cfg.point_spacing), ang[~np.isfinite(r)]
 
     def _match(self, pts: np.ndarray, guess: se2.PoseTuple, has_odom: bool, delta: se2.PoseTuple
@@ -362,6 +350,11 @@ class LogSlam:
             fe, mp = self.config.frontend, self.config.motion_prior
             self._filled[k] = fill_surfaces(self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)
         return self._filled[k]
+
+    @property
+    def deskew_delay(self) -> float:
+        """The odd beams' delay after the even ones learnt by `slam.deskew`, s (0: scans left as they are)."""
+        return self._deskew.delay() if self._deskew is not None else 0.0
 
     def invalidate_local_map(self) -> None:
         self._local_at = -1

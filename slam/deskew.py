@@ -10,7 +10,9 @@ Nothing in a CARMEN FLASER line says whether the scan is interlaced, nor which h
 is estimated online: on scans taken while turning, the odd beams are matched to the even beams (point-to-line
 ICP) and their relative heading regressed on the turn rate, yaw = T·ω + c (c absorbs any constant offset
 between the halves, e.g. a beam layout half a step off). Once that fit is significant, every scan's odd beams
-are moved into the even beams' frame by the motion over T (a constant velocity: (v·T, 0, ω·T)). A scan from
+and even beams are moved into the frame of the sensor midway between the two sweeps by the motion over ±T/2
+(a constant velocity). Midway, so that the scan's pose keeps the time a blurred scan's match stood for (and
+a reference made from blurred scans). A scan from
 a single sweep (a 1° SICK, any scanner that is not interlaced) gives T ≈ 0 and is left as it is.
 """
 
@@ -43,6 +45,8 @@ class DeskewConfig(StrictModel):
                                 "estimated step) over the scans' interval; over a longer interval (a log of "
                                 "keyframes, e.g. freiburg-101, seattle) it says nothing about the rate during the "
                                 "sweep, and the scan is left as it is, s")
+    odometry_rate: bool = Field(False, description="use the odometry's rate at the scan's stamp (from the ODOM "
+                                "lines around it) when the log gives one, instead of the step between scans")
     max_range: float = Field(8.0, gt=0, description="returns used for the even/odd match, m")
     min_points: int = Field(60, ge=10, description="… at least this many per half")
 
@@ -98,13 +102,17 @@ class InterlaceDeskew:
         return self.apply(points, odd, velocity)
 
     def apply(self, points: np.ndarray, odd: np.ndarray, velocity: se2.PoseTuple) -> np.ndarray:
-        """The odd beams' points moved into the even beams' frame by the motion over the delay (`velocity`:
-        vx, vy in m/s and ω in rad/s, sensor frame)."""
+        """The odd beams' points moved forward, and the even beams' back, by the motion over half the delay
+        (`velocity`: vx, vy in m/s and ω in rad/s, sensor frame), into the frame of the sensor midway between
+        the two sweeps."""
         t = self.delay()
         if t == 0.0 or not odd.any():
             return points
         out = points.copy()
-        out[odd] = se2.transform_points((velocity[0] * t, velocity[1] * t, velocity[2] * t), points[odd])
+        h = 0.5 * t  # both halves to the middle of the two sweeps: the time a blurred scan's match stands for
+        out[odd] = se2.transform_points((velocity[0] * h, velocity[1] * h, velocity[2] * h), points[odd])
+        back = se2.from_matrix(np.linalg.inv(se2.to_matrix((velocity[0] * h, velocity[1] * h, velocity[2] * h))))
+        out[~odd] = se2.transform_points(back, points[~odd])
         return out
 
 

@@ -36,6 +36,7 @@ class LoadedLog:
     odom_valid: np.ndarray
     reference: np.ndarray | None
     kind: str
+    odom_rates: np.ndarray | None = None  # (n, 3) odometry rate at each scan's stamp (NaN: unknown; slam.deskew)
 
 
 def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:
@@ -46,7 +47,7 @@ def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:
 
         log = read_carmen(p, odometry=config.odometry, laser=config.laser, max_range=80.0)
         valid = log.odom_valid if log.odom_valid is not None else np.zeros(len(log.records), dtype=bool)
-        return LoadedLog(log.records, valid, log.reference, "carmen")
+        return LoadedLog(log.records, valid, log.reference, "carmen", log.odom_rates)
     if name.endswith(".mcap"):
         from slam.io_mcap import read_mcap_scans
 
@@ -64,7 +65,9 @@ def run_slam(log: LoadedLog, config: LogSlamConfig, progress: Progress | None = 
     n = len(log.records)
     t0 = time.perf_counter()
     for k, rec in enumerate(log.records):
-        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]),
+        rate = None if log.odom_rates is None or not np.isfinite(log.odom_rates[k]).all() \
+            else tuple(float(v) for v in log.odom_rates[k])
+        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]), rate=rate,  # type: ignore[arg-type]
                       lookahead=[r.scan for r in log.records[k + 1:k + 1 + config.lookahead.depth]])
         if progress is not None and (k % 25 == 0 or k == n - 1):
             progress(k + 1, n, 1000 * (time.perf_counter() - t0) / (k + 1))

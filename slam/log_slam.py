@@ -107,16 +107,18 @@ class LogSlam:
     # ---- per scan ------------------------------------------------------------------------------------
 
     def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True,
-                 lookahead: LidarScan | Sequence[LidarScan] | None = None) -> Pose2D:
+                 lookahead: LidarScan | Sequence[LidarScan] | None = None,
+                 rate: se2.PoseTuple | None = None) -> Pose2D:
         """`lookahead`: the next scan(s), if known (a log), to settle a weak or near-tied wide match
-        (`slam.hypotheses`, `slam.lookahead`)."""
+        (`slam.hypotheses`, `slam.lookahead`). `rate`: the odometry's (vx, vy, ω) at the scan's stamp, if known
+        (`slam.deskew`)."""
         t0, c0 = time.perf_counter(), time.process_time()
         cfg = self.config
         self._following = [] if lookahead is None else [lookahead] if isinstance(lookahead, LidarScan) \
             else list(lookahead)
         o = odom.as_tuple() if odom is not None else None
         i = len(self.poses)
-        pts, no_ret = self._preprocess(scan, self._velocity(scan.stamp, o, odom_valid))
+        pts, no_ret = self._preprocess(scan, self._velocity(scan.stamp, o, odom_valid, rate))
         if i == 0:
             pose = self._start
             self.graph.add_pose(pose)
@@ -155,9 +157,12 @@ class LogSlam:
         self.stamps.append(stamp)
         self.path.append(path)
 
-    def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool) -> se2.PoseTuple | None:
+    def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool, rate: se2.PoseTuple | None
+                  ) -> se2.PoseTuple | None:
         if self._deskew is None or not self.poses:
             return None
+        if rate is not None and self._deskew.config.odometry_rate:
+            return rate
         return step_velocity(stamp, self.stamps, self.odometry[-1] if odom_valid else None, odom, self.poses,
                              self._deskew.config.max_interval)
 

@@ -5,13 +5,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
-from sim.types import Pose2D
+from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.deskew import DeskewConfig, InterlaceDeskew
 from slam.icp import IcpTarget, icp
+from slam.io_carmen import format_flaser, read_carmen
 from slam.log_config import LogSlamConfig
 from slam.log_slam import LogSlam
 from tests.slam import synth
@@ -117,3 +119,24 @@ def test_log_slam_learns_the_delay_from_its_odometry_and_deskews_the_stored_scan
     near = np.hypot(*pts.T) < 8.0
     d, _ = walls.tree.query(pts[near])
     assert float(np.sqrt(np.mean(np.minimum(d, 0.2) ** 2))) < 0.0075  # 5 mm deskewed, 11 mm as recorded
+
+
+def test_carmen_reader_gives_the_odometry_rate_at_each_scan(tmp_path: Path) -> None:
+    """ODOM lines at 20 Hz on an arc (0.4 m/s, 0.5 rad/s), a FLASER line every second between two of them: the
+    rate at each scan's stamp is the arc's (the chord of 0.05 s: vx within 0.1 %, vy = v·ω·dt/2)."""
+    v, w, dt = 0.4, 0.5, 0.05
+    lines = []
+    for k in range(121):
+        t = k * dt
+        x, y = (v / w) * math.sin(w * t), (v / w) * (1 - math.cos(w * t))
+        lines.append(f"ODOM {x:.9f} {y:.9f} {w * t:.9f} 0 0 0 {t:.6f} nohost {t:.6f}")
+        if k % 20 == 10:
+            ts = t + dt / 2
+            scan = LidarScan("carmen", ts, -math.pi / 2, math.pi / 180, 0.1, 10.0, np.full(181, 3.0))
+            lines.append(format_flaser(scan, Pose2D(x, y, w * t)))
+    (tmp_path / "arc.log").write_text("\n".join(lines) + "\n")
+    log = read_carmen(tmp_path / "arc.log")
+    assert log.odom_rates is not None and len(log.odom_rates) == 6
+    assert np.allclose(log.odom_rates[:, 2], w, atol=1e-6)
+    assert np.allclose(log.odom_rates[:, 0], v, rtol=1e-3)
+    assert np.allclose(log.odom_rates[:, 1], v * w * dt / 2, atol=1e-4)

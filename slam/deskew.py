@@ -45,8 +45,10 @@ class DeskewConfig(StrictModel):
                                 "estimated step) over the scans' interval; over a longer interval (a log of "
                                 "keyframes, e.g. freiburg-101, seattle) it says nothing about the rate during the "
                                 "sweep, and the scan is left as it is, s")
-    odometry_rate: bool = Field(False, description="use the odometry's rate at the scan's stamp (from the ODOM "
-                                "lines around it) when the log gives one, instead of the step between scans")
+    odometry_rate: bool = Field(True, description="use the odometry's rate over the ODOM interval holding the "
+                                "scan's stamp, where the log's ODOM lines are finer than its scans (≥ 3 since the "
+                                "previous scan: a log of keyframes, scans seconds apart), instead of the step "
+                                "between scans")
     max_range: float = Field(8.0, gt=0, description="returns used for the even/odd match, m")
     min_points: int = Field(60, ge=10, description="… at least this many per half")
 

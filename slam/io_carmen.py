@@ -58,7 +58,8 @@ class CarmenLog:
     odom_valid: np.ndarray | None = None  # (n,) bool: odometry observed motion since the previous scan
     source: str = "odom_increments"
     laser_types: dict[str, int] = field(default_factory=dict)
-    odom_rates: np.ndarray | None = None  # (n, 3) odometry (vx, vy, ω) at each scan's stamp, robot frame (NaN: unknown)
+    odom_rates: np.ndarray | None = None  # (n, 4) odometry (vx, vy, ω) at each scan's stamp, robot frame, and the
+    # ODOM interval (s) it was measured over (NaN: unknown)
 
     @property
     def stamps(self) -> np.ndarray:
@@ -151,8 +152,9 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
 
 def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | None], np.ndarray, np.ndarray]:
     """Raw odometry at each scan: chained ODOM increments (restarts skipped), interpolated in time; its valid
-    flags; and its rate (vx, vy, ω; robot frame) over the ODOM interval holding the scan's stamp (NaN without
-    informative stamps)."""
+    flags; and its rate (vx, vy, ω; robot frame) over the ODOM interval holding the scan's stamp, with that
+    interval's length (NaN without informative stamps, or where fewer than 3 ODOM samples came since the
+    previous scan: then the rate would be no finer than the step between the scans)."""
     times: list[float] = []
     chain: list[tuple[float, float, float]] = []
     before: list[int] = []  # per scan: chain samples written before its line
@@ -181,7 +183,7 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
         times.append(item.stamp)
         chain.append(acc)
     n = len(before)
-    rates = np.full((n, 3), np.nan)
+    rates = np.full((n, 4), np.nan)
     if not chain:
         return [None] * n, np.zeros(n, dtype=bool), rates
     t = np.array(times)
@@ -197,8 +199,9 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
             j = int(np.searchsorted(t, ts, side="right"))
             j = min(max(j, 1), len(t) - 1)
             out.append(_interp(t[j - 1], c[j - 1], t[j], c[j], ts))
-            if t[j] > t[j - 1]:
-                rates[k] = se2.between_many(c[j - 1][None], c[j][None])[0] / (t[j] - t[j - 1])
+            if t[j] > t[j - 1] and k > 0 and before[k] - before[k - 1] >= 3:  # ODOM lines finer than the scans
+                rates[k, :3] = se2.between_many(c[j - 1][None], c[j][None])[0] / (t[j] - t[j - 1])
+                rates[k, 3] = t[j] - t[j - 1]
         else:  # bad or out-of-range stamps: the latest sample before the line, in file order
             q = c[max(before[k] - 1, 0)]
             out.append((float(q[0]), float(q[1]), float(q[2])))

@@ -36,7 +36,7 @@ class LoadedLog:
     odom_valid: np.ndarray
     reference: np.ndarray | None
     kind: str
-    odom_rates: np.ndarray | None = None  # (n, 3) odometry rate at each scan's stamp (NaN: unknown; slam.deskew)
+    odom_rates: np.ndarray | None = None  # (n, 4) odometry rate at each scan's stamp and its interval (slam.deskew)
 
 
 def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:

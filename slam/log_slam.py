@@ -108,10 +108,10 @@ class LogSlam:
 
     def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True,
                  lookahead: LidarScan | Sequence[LidarScan] | None = None,
-                 rate: se2.PoseTuple | None = None) -> Pose2D:
+                 rate: tuple[float, float, float, float] | None = None) -> Pose2D:
         """`lookahead`: the next scan(s), if known (a log), to settle a weak or near-tied wide match
-        (`slam.hypotheses`, `slam.lookahead`). `rate`: the odometry's (vx, vy, ω) at the scan's stamp, if known
-        (`slam.deskew`)."""
+        (`slam.hypotheses`, `slam.lookahead`). `rate`: the odometry's (vx, vy, ω) at the scan's stamp and the
+        interval it was measured over, if known (`slam.deskew`)."""
         t0, c0 = time.perf_counter(), time.process_time()
         cfg = self.config
         self._following = [] if lookahead is None else [lookahead] if isinstance(lookahead, LidarScan) \
@@ -157,12 +157,12 @@ class LogSlam:
         self.stamps.append(stamp)
         self.path.append(path)
 
-    def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool, rate: se2.PoseTuple | None
-                  ) -> se2.PoseTuple | None:
+    def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool,
+                  rate: tuple[float, float, float, float] | None) -> se2.PoseTuple | None:
         if self._deskew is None or not self.poses:
             return None
         if rate is not None and self._deskew.config.odometry_rate:
-            return rate
+            return (rate[0], rate[1], rate[2])  # the ODOM lines resolve the motion finer than the scans
         return step_velocity(stamp, self.stamps, self.odometry[-1] if odom_valid else None, odom, self.poses,
                              self._deskew.config.max_interval)
 

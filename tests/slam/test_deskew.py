@@ -136,7 +136,10 @@ def test_carmen_reader_gives_the_odometry_rate_at_each_scan(tmp_path: Path) -> N
             lines.append(format_flaser(scan, Pose2D(x, y, w * t)))
     (tmp_path / "arc.log").write_text("\n".join(lines) + "\n")
     log = read_carmen(tmp_path / "arc.log")
-    assert log.odom_rates is not None and len(log.odom_rates) == 6
-    assert np.allclose(log.odom_rates[:, 2], w, atol=1e-6)
-    assert np.allclose(log.odom_rates[:, 0], v, rtol=1e-3)
-    assert np.allclose(log.odom_rates[:, 1], v * w * dt / 2, atol=1e-4)
+    assert log.odom_rates is not None and log.odom_rates.shape == (6, 4)
+    assert np.isnan(log.odom_rates[0]).all()  # the first scan has no previous one to count ODOM lines from
+    rates = log.odom_rates[1:]
+    assert np.allclose(rates[:, 3], dt)
+    assert np.allclose(rates[:, 2], w, atol=1e-6)
+    assert np.allclose(rates[:, 0], v, rtol=1e-3)
+    assert np.allclose(rates[:, 1], v * w * dt / 2, atol=1e-4)

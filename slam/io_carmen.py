@@ -66,6 +66,8 @@ class CarmenLog:
     source: str = "odom_increments"
     laser_types: dict[str, int] = field(default_factory=dict)
     reference_kind: str = "unknown"  # what `reference` holds (see the module doc)
+    odom_rates: np.ndarray | None = None  # (n, 4) odometry (vx, vy, ω) at each scan's stamp, robot frame, and the
+    # ODOM interval (s) it was measured over (NaN: unknown)
 
     @property
     def stamps(self) -> np.ndarray:
@@ -146,7 +148,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
     reference = np.array([s.pose for s in scans], dtype=np.float64) if has_ref else None
     kind = _reference_kind(parsed, reference)
     if odometry == "odom_increments":
-        poses, valid = _odom_chain(parsed)
+        poses, valid, rates = _odom_chain(parsed)
     elif odometry == "laser_pose":
         if reference is None:
             raise FleetError(ErrorCode.INVALID_ARGUMENT, f"{p}: RAWLASER lines carry no pose",
@@ -158,7 +160,8 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0, flaser_fov: float 
     _mark_no_return([s.scan for s in scans if s.scan is not None])
     records = [ScanRecord(s.scan, None if q is None else Pose2D(*q))  # type: ignore[arg-type]
                for s, q in zip(scans, poses, strict=True)]
-    return CarmenLog(records, odom_lines, offset, skipped, reference, valid, odometry, types, kind)
+    return CarmenLog(records, odom_lines, offset, skipped, reference, valid, odometry, types, kind,
+                     rates if odometry == "odom_increments" else None)
 
 
 def _reference_kind(parsed: list[_Line], reference: np.ndarray | None) -> str:
@@ -194,8 +197,11 @@ def _close(a: tuple[float, float, float], b: tuple[float, float, float], tol: fl
     return max(abs(a[0] - b[0]), abs(a[1] - b[1]), abs(math.remainder(a[2] - b[2], math.tau))) < tol
 
 
-def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | None], np.ndarray]:
-    """Raw odometry at each scan: chained ODOM increments (restarts skipped), interpolated in time."""
+def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | None], np.ndarray, np.ndarray]:
+    """Raw odometry at each scan: chained ODOM increments (restarts skipped), interpolated in time; its valid
+    flags; and its rate (vx, vy, ω; robot frame) over the ODOM interval holding the scan's stamp, with that
+    interval's length (NaN without informative stamps, or where fewer than 3 ODOM samples came since the
+    previous scan: then the rate would be no finer than the step between the scans)."""
     times: list[float] = []
     chain: list[tuple[float, float, float]] = []
     before: list[int] = []  # per scan: chain samples written before its line
@@ -224,8 +230,9 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
         times.append(item.stamp)
         chain.append(acc)
     n = len(before)
+    rates = np.full((n, 4), np.nan)
     if not chain:
-        return [None] * n, np.zeros(n, dtype=bool)
+        return [None] * n, np.zeros(n, dtype=bool), rates
     t = np.array(times)
     c = np.array(chain)
     ts_all = np.array([x.scan.stamp if x.scan is not None else 0.0 for x in parsed if x.kind != "ODOM"])
@@ -239,12 +246,15 @@ def _odom_chain(parsed: list[_Line]) -> tuple[list[tuple[float, float, float] | 
             j = int(np.searchsorted(t, ts, side="right"))
             j = min(max(j, 1), len(t) - 1)
             out.append(_interp(t[j - 1], c[j - 1], t[j], c[j], ts))
+            if t[j] > t[j - 1] and k > 0 and before[k] - before[k - 1] >= 3:  # ODOM lines finer than the scans
+                rates[k, :3] = se2.between_many(c[j - 1][None], c[j][None])[0] / (t[j] - t[j - 1])
+                rates[k, 3] = t[j] - t[j - 1]
         else:  # bad or out-of-range stamps: the latest sample before the line, in file order
             q = c[max(before[k] - 1, 0)]
             out.append((float(q[0]), float(q[1]), float(q[2])))
     valid = np.zeros(n, dtype=bool)
     valid[1:] = np.diff(np.array(before)) > 0  # a fresh ODOM sample since the previous scan
-    return out, valid
+    return out, valid, rates
 
 
 _SICK_RES = (math.radians(1.0), math.radians(0.5), math.radians(0.25))

@@ -9,6 +9,7 @@ from pydantic import Field
 
 from sim.config import StrictModel
 from slam.densify import DensifyConfig
+from slam.deskew import DeskewConfig
 from slam.edge_switch import EdgeSwitchConfig
 from slam.hypotheses import HypothesesConfig
 from slam.lookahead import LookaheadConfig
@@ -57,6 +58,7 @@ class FrontEndConfig(StrictModel):
                                          "floor variance")
     odom_sigma_xy: float = Field(0.2, gt=0, description="σ of an edge from odometry alone (match failed), m")
     odom_sigma_yaw: float = Field(0.1, gt=0, description="rad")
+    deskew: DeskewConfig = Field(DeskewConfig(), description="interlaced-scan deskewing (`slam.deskew`)")
     refinement: Literal["icp", "smooth"] = Field("icp", description="sub-cell refinement of the correlative "
                                                  "match: point-to-line ICP, or the smooth (bicubic) map cost "
                                                  "of `slam.scan_refine` (ICP then only gives the edge's "

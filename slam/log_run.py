@@ -37,6 +37,7 @@ class LoadedLog:
     reference: np.ndarray | None
     kind: str
     reference_kind: str = "none"  # CARMEN: what the laser lines' poses are (`slam.io_carmen`)
+    odom_rates: np.ndarray | None = None  # (n, 4) odometry rate at each scan's stamp and its interval (slam.deskew)
 
 
 def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:
@@ -47,7 +48,7 @@ def load_log(path: str | Path, config: LogSlamConfig) -> LoadedLog:
 
         log = read_carmen(p, odometry=config.odometry, laser=config.laser, max_range=80.0)
         valid = log.odom_valid if log.odom_valid is not None else np.zeros(len(log.records), dtype=bool)
-        return LoadedLog(log.records, valid, log.reference, "carmen", log.reference_kind)
+        return LoadedLog(log.records, valid, log.reference, "carmen", log.reference_kind, log.odom_rates)
     if name.endswith(".mcap"):
         from slam.io_mcap import read_mcap_scans
 
@@ -65,7 +66,9 @@ def run_slam(log: LoadedLog, config: LogSlamConfig, progress: Progress | None = 
     n = len(log.records)
     t0 = time.perf_counter()
     for k, rec in enumerate(log.records):
-        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]),
+        rate = None if log.odom_rates is None or not np.isfinite(log.odom_rates[k]).all() \
+            else tuple(float(v) for v in log.odom_rates[k])
+        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]), rate=rate,  # type: ignore[arg-type]
                       lookahead=[r.scan for r in log.records[k + 1:k + 1 + config.lookahead.depth]])
         if progress is not None and (k % 25 == 0 or k == n - 1):
             progress(k + 1, n, 1000 * (time.perf_counter() - t0) / (k + 1))
@@ -91,7 +94,9 @@ def write_outputs(slam: LogSlam, log: LoadedLog, out: str | Path, wall: float, s
         "log": source, "kind": log.kind, "scans": n, "odometry": slam.config.odometry,
         "odometry_steps_missing": int((~log.odom_valid[1:]).sum()) if n > 1 else 0,
         "front_end": {"matched": slam.stats.matched, "wide_window": slam.stats.wide,
-                      "odometry_only": slam.stats.odometry_only, "ambiguous": slam.stats.ambiguous},
+                      "odometry_only": slam.stats.odometry_only, "ambiguous": slam.stats.ambiguous,
+                      # the interlace delay learnt by `slam.deskew` (0: the scans were left as they are)
+                      "deskew_delay_ms": 1000 * slam.deskew_delay},
         "loop_closures": {"accepted": sum(c.accepted for c in closures),
                           "rejected": sum(not c.accepted for c in closures),
                           "reasons": dict(slam.loops.reasons), "list": [c.as_dict() for c in closures]},

@@ -27,6 +27,7 @@ from slam import se2
 from slam.alloc import retain_freed_memory
 from slam.csm import CsmResult, MatchGrid, first_per_cell, search
 from slam.densify import Densifier
+from slam.deskew import InterlaceDeskew, step_velocity
 from slam.edge_switch import Surface
 from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
@@ -96,6 +97,7 @@ class LogSlam:
         self._wide = False
         self.surfaces: dict[int, Surface] = {}  # node → score surface of its wide match
         self._mixtures: dict[int, object] = {}  # node → its incoming max-mixture edge (kept alive here)
+        self._deskew = InterlaceDeskew(cfg.frontend.deskew) if cfg.frontend.deskew.enabled else None
         self.loops = LoopFinder(cfg.loops, self)
         self.densifier = Densifier(cfg.densify, self)
         fe = cfg.frontend
@@ -107,16 +109,18 @@ class LogSlam:
     # ---- per scan ------------------------------------------------------------------------------------
 
     def add_scan(self, scan: LidarScan, odom: Pose2D | None = None, odom_valid: bool = True,
-                 lookahead: LidarScan | Sequence[LidarScan] | None = None) -> Pose2D:
+                 lookahead: LidarScan | Sequence[LidarScan] | None = None,
+                 rate: tuple[float, float, float, float] | None = None) -> Pose2D:
         """`lookahead`: the next scan(s), if known (a log), to settle a weak or near-tied wide match
-        (`slam.hypotheses`, `slam.lookahead`)."""
+        (`slam.hypotheses`, `slam.lookahead`). `rate`: the odometry's (vx, vy, ω) at the scan's stamp and the
+        interval it was measured over, if known (`slam.deskew`)."""
         t0, c0 = time.perf_counter(), time.process_time()
         cfg = self.config
         self._following = [] if lookahead is None else [lookahead] if isinstance(lookahead, LidarScan) \
             else list(lookahead)
-        pts, no_ret = self._preprocess(scan)
         o = odom.as_tuple() if odom is not None else None
         i = len(self.poses)
+        pts, no_ret = self._preprocess(scan, self._velocity(scan.stamp, o, odom_valid, rate))
         if i == 0:
             pose = self._start
             self.graph.add_pose(pose)
@@ -155,12 +159,25 @@ class LogSlam:
         self.stamps.append(stamp)
         self.path.append(path)
 
-    def _preprocess(self, scan: LidarScan) -> tuple[np.ndarray, np.ndarray]:
+    def _velocity(self, stamp: float, odom: se2.PoseTuple | None, odom_valid: bool,
+                  rate: tuple[float, float, float, float] | None) -> se2.PoseTuple | None:
+        if self._deskew is None or not self.poses:
+            return None
+        if rate is not None and self._deskew.config.odometry_rate:
+            return (rate[0], rate[1], rate[2])  # the ODOM lines resolve the motion finer than the scans
+        return step_velocity(stamp, self.stamps, self.odometry[-1] if odom_valid else None, odom, self.poses,
+                             self._deskew.config.max_interval)
+
+    def _preprocess(self, scan: LidarScan, velocity: se2.PoseTuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Valid returns as points (deskewed if `frontend.deskew` and `velocity` is known), thinned, and the
+        angles of the beams without a return."""
         cfg = self.config
         r = scan.ranges
         ang = scan.angles()
         ok = np.isfinite(r) & (r >= max(cfg.min_range, scan.range_min)) & (r <= min(cfg.max_range, scan.range_max))
         pts = np.column_stack([r[ok] * np.cos(ang[ok]), r[ok] * np.sin(ang[ok])])
+        if self._deskew is not None and velocity is not None:
+            pts = self._deskew.process(pts, r[ok], (np.nonzero(ok)[0] % 2) == 1, velocity)
         return thin(pts, cfg.point_spacing), ang[~np.isfinite(r)]
 
     def _match(self, pts: np.ndarray, guess: se2.PoseTuple, has_odom: bool, delta: se2.PoseTuple
@@ -346,6 +363,11 @@ class LogSlam:
             fe, mp = self.config.frontend, self.config.motion_prior
             self._filled[k] = fill_surfaces(self.points[k], fe.resolution / 2, mp.fill_ratio, mp.fill_max_gap)
         return self._filled[k]
+
+    @property
+    def deskew_delay(self) -> float:
+        """The odd beams' delay after the even ones learnt by `slam.deskew`, s (0: scans left as they are)."""
+        return self._deskew.delay() if self._deskew is not None else 0.0
 
     def invalidate_local_map(self) -> None:
         self._local_at = -1

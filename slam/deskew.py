@@ -35,8 +35,9 @@ class DeskewConfig(StrictModel):
     """`frontend.deskew`: interlaced-scan deskewing (`slam.deskew`)."""
 
     enabled: bool = Field(True, description="estimate the delay between a scan's even and odd beams online "
-                          "and move the odd beams by the motion over it (freiburg-079: ATE 0.0806 → 0.0789 m; "
-                          "inactive on the other four logs, docs/benchmarks-slam.md, helper 14y)")
+                          "and move both halves to the pose midway between the two sweeps (freiburg-079: ATE 0.0806 → "
+                          "0.0736 m, seattle 0.0388 → 0.0369; no delay found on 1° scans; docs/benchmarks-slam.md, "
+                          "helper 14y)")
     min_rate: float = Field(0.1, gt=0, description="scans turning at least this fast are used for the "
                             "estimate, rad/s")
     min_samples: int = Field(30, ge=5, description="… and the delay is used once this many agree")

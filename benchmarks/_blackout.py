@@ -6,7 +6,8 @@ a long featureless corridor or an open hall does to a real log.
 Choice rule (seeded, the same for every log): a *revisit* is a scan within `near` m of a reference pose at least
 `loop_path` m of path earlier (the first scan of each run of such scans). Up to `gaps` revisits are drawn at
 random; each gap ends at its revisit and starts L ~ U(20, 60) m of path before it (cut so that it starts after the
-earlier visit and does not overlap another gap). Drift at a gap's end: the odometry chained across the gap from
+earlier visit, with ≥ 20 m of seeing path between gaps; a revisit whose gap would be shorter than 20 m or too
+close to a chosen gap is skipped). Drift at a gap's end: the odometry chained across the gap from
 the reference pose at its start, against the reference at its end.
 """
 
@@ -41,7 +42,7 @@ def revisits(ref: np.ndarray, near: float = 1.5, loop_path: float = 60.0) -> lis
 
 
 def choose_gaps(ref: np.ndarray, rng: np.random.Generator, gaps: int = 2, lo: float = 20.0, hi: float = 60.0,
-                min_len: float = 20.0) -> list[tuple[int, int]]:
+                min_len: float = 20.0, sighted: float = 20.0) -> list[tuple[int, int]]:
     """[start, end) scan ranges of the blackouts (module doc), in log order."""
     path = path_of(ref[:, :2])
     events = revisits(ref)
@@ -51,10 +52,9 @@ def choose_gaps(ref: np.ndarray, rng: np.random.Generator, gaps: int = 2, lo: fl
         length = float(rng.uniform(lo, hi))
         start = int(np.searchsorted(path, path[end] - length))
         start = max(start, old + 1 + int(np.searchsorted(path[old:], path[old] + 5.0)))  # after the first visit
-        for s, e in out:
-            if start < e and end > s:  # overlaps: start after that gap (or skip)
-                start = max(start, e + 1)
-        if path[end] - path[min(start, end)] < min_len or any(start < e and end > s for s, e in out):
+        # at least `sighted` m of seeing path between gaps: the robot must be back in mapped space in between
+        if path[end] - path[min(start, end)] < min_len \
+                or any(path[start] < path[e] + sighted and path[end] + sighted > path[s] for s, e in out):
             continue
         out.append((start, end))
         if len(out) == gaps:

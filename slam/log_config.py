@@ -87,8 +87,9 @@ class LoopConfig(StrictModel):
     yaw_window: float = Field(math.radians(30), gt=0, description="rotation search ± this, rad")
     blind_radius_rate: float = Field(0.15, ge=0, description="the radius grows by this per m of *blind* path "
                                      "(steps the front end could not match: a laser dropout, a featureless "
-                                     "hall; the estimate rode on raw odometry) since the submap or the last "
-                                     "closure, beyond `radius_max` (0: off), m/m")
+                                     "hall; the estimate rode on the odometry; steps without odometry do not "
+                                     "count) since the submap or the last closure, beyond `radius_max` (0: off), "
+                                     "m/m")
     blind_radius_max: float = Field(10.0, gt=0, description="… at most this much more, m")
     blind_yaw_rate: float = Field(math.radians(1.0), ge=0, description="… and the rotation window by this, rad/m")
     blind_yaw_max: float = Field(math.radians(60), gt=0, description="… at most this much more, rad")

@@ -79,7 +79,7 @@ class LogSlam:
         self.points: list[np.ndarray] = []  # thinned returns per node, base frame
         self.no_return: list[np.ndarray] = []
         self.path: list[float] = []  # cumulative path length at each node
-        self.blind: list[float] = []  # … of it on steps the front end could not match (odometry / prior only)
+        self.blind: list[float] = []  # … of it on steps the front end could not match, on odometry
         self.stamps: list[float] = []
         self.odometry: list[se2.PoseTuple | None] = []
         self.stats = FrontEndStats()
@@ -147,7 +147,9 @@ class LogSlam:
         self.edges.append((i - 1, i, rel, cov))
         step = math.hypot(rel[0], rel[1])
         self._append(scan.stamp, pose, pts, no_ret, o, self.path[-1] + step)
-        self.blind.append(self.blind[-1] + (step if matched is None else 0.0))
+        # dead reckoning on odometry drifts at a bounded rate the loop search can widen for; a step with
+        # neither (the motion prior's guess) has no such bound
+        self.blind.append(self.blind[-1] + (step if matched is None and has_odom else 0.0))
         if cfg.loops.enabled:
             self.loops.step(i)
         self.stats.times.append(time.perf_counter() - t0)

@@ -23,11 +23,11 @@ import numpy as np
 
 from sim.transforms import se2_between, se2_compose
 from slam import se2
-from slam.csm import MatchGrid, search
+from slam.csm import search
 from slam.edge_switch import rank_edges
 from slam.icp import icp
 from slam.loop_batch import AnchorTable, BuiltCache, chi2_at, within
-from slam.loop_blind import distinct
+from slam.loop_blind import WideGrids, distinct, widening
 from slam.loop_closure import descriptor_distance, ring_descriptor
 from slam.loop_coverage import rival
 from slam.loop_groups import Pending, largest_group
@@ -80,7 +80,7 @@ class LoopFinder:
         self._cache = BuiltCache(config.max_built)
         self.deferred: list[int] = []  # factor indices of closures added without optimising (`slam.loop_batch`)
         self._deferred_since = math.inf
-        self._widened: dict[tuple[int, bool, int], MatchGrid] = {}  # widened-window grids (`_wide_grid`)
+        self._widened = WideGrids()  # grids for windows widened by blind path
 
     @property
     def accepted(self) -> int:
@@ -141,7 +141,7 @@ class LoopFinder:
         keys, apath, axy = self._tables[0].get(self.submaps, self.slam.poses, self.slam.path)
         sep = path[i] - apath
         drift = np.minimum(sep, path[i] - self._last_closure_path + c.submap_distance)
-        extra, yaw = self._blind_widening(i, keys)
+        extra, yaw = widening(c, s.blind, path, self._last_closure_path, i, keys)
         radius = np.minimum(c.radius_max, c.radius_base + c.radius_drift * drift) + extra
         dist = np.hypot(axy[:, 0] - here[0], axy[:, 1] - here[1]) if len(keys) else np.zeros(0)
         for n in np.nonzero((sep >= c.min_path_separation + c.submap_distance)
@@ -156,18 +156,6 @@ class LoopFinder:
             return self._covering(i)
         return [(self.submaps[a], r, y) for _, a, r, y in found[: c.max_candidates]]
 
-    def _blind_widening(self, i: int, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Extra search radius (m) and rotation window (rad) per anchor in `keys`, from the blind path since the
-        anchor or the last closure (whichever is later)."""
-        c, s = self.config, self.slam
-        extra, yaw = np.zeros(len(keys)), np.full(len(keys), c.yaw_window)
-        since = s.blind[i] - s.blind[min(bisect.bisect_left(s.path, self._last_closure_path), i)]
-        if since <= 0 or not len(keys):  # the usual case: the front end matched every step since
-            return extra, yaw
-        blind = np.minimum(since, s.blind[i] - np.array([s.blind[int(a)] for a in keys]))
-        extra = np.minimum(c.blind_radius_max, c.blind_radius_rate * blind)
-        return extra, yaw + np.minimum(c.blind_yaw_max, c.blind_yaw_rate * blind)
-
     def _covering(self, i: int) -> list[tuple[Submap, float, float]]:
         c, s = self.config, self.slam
         path, here, probe = s.path, s.poses[i], self._probe(i)
@@ -175,7 +163,7 @@ class LoopFinder:
         keys, apath, axy = self._tables[1].get(self.wide, self.slam.poses, self.slam.path)
         near = within(axy, here, c.coverage_reach) \
             & (path[i] - apath >= c.min_path_separation + c.coverage_submap_distance)
-        extra, yaw = self._blind_widening(i, keys[near])
+        extra, yaw = widening(c, s.blind, path, self._last_closure_path, i, keys[near])
         for a, e, y in zip(keys[near].tolist(), extra.tolist(), yaw.tolist(), strict=True):
             sm, sep, p = self.wide[a], path[i] - path[a], s.poses[a]
             if sm.coverage is None:
@@ -205,7 +193,7 @@ class LoopFinder:
         sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), n)).astype(int)]
         weak = c.weak_min_score if sm.coverage is not None and self.config.groups.enabled else None
         widened = radius > c.radius_max + 1e-9 or (yaw is not None and yaw > c.yaw_window + 1e-9)
-        grid = self._wide_grid(sm, radius) if radius > c.radius_max + 1e-9 else sm.grid
+        grid = self._widened.get(sm, radius) if radius > c.radius_max + 1e-9 else sm.grid
         res = search(grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window if yaw is None else yaw,
                      max_range_for_step=angle_range,
                      min_score=c.min_score if weak is None else min(weak, c.min_score))
@@ -436,15 +424,6 @@ class LoopFinder:
         now = se2_between(self.slam.poses[target], self.slam.poses[source])
         off = math.hypot(now[0] - relative[0], now[1] - relative[1])
         return "cauchy" if off > c.strong_kernel_beyond else c.kernel
-
-    def _wide_grid(self, sm: Submap, radius: float) -> MatchGrid:
-        """`sm`'s grid for a window widened by blind path, the last two kept (a scan tries ≤ 2 candidates)."""
-        key = (sm.anchor, sm.coverage is not None, math.ceil(radius))
-        if key not in self._widened:
-            self._widened[key] = sm.wide_grid(math.ceil(radius))
-            while len(self._widened) > 2:
-                self._widened.pop(next(iter(self._widened)))
-        return self._widened[key]
 
     def _record(self, closure: Closure) -> Closure:
         self.history.append(closure)

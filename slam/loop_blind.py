@@ -12,11 +12,48 @@ found in a widened window must stand out: no pose of the window farther than 0.5
 
 from __future__ import annotations
 
+import bisect
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from slam import se2
 from slam.csm import MatchGrid, search
 from slam.loop_coverage import rival
+
+if TYPE_CHECKING:
+    from slam.log_config import LoopConfig
+    from slam.loop_submap import Submap
+
+
+def widening(c: LoopConfig, blind: Sequence[float], path: Sequence[float], last_closure_path: float, i: int,
+             keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Extra search radius (m) and rotation window (rad) for scan i against each anchor in `keys`, from the
+    blind path since the anchor or the last closure (whichever is later)."""
+    extra, yaw = np.zeros(len(keys)), np.full(len(keys), c.yaw_window)
+    since = blind[i] - blind[min(bisect.bisect_left(path, last_closure_path), i)]
+    if since <= 0 or not len(keys):  # the usual case: the front end matched every step since
+        return extra, yaw
+    steps = np.minimum(since, blind[i] - np.array([blind[int(a)] for a in keys]))
+    extra = np.minimum(c.blind_radius_max, c.blind_radius_rate * steps)
+    return extra, yaw + np.minimum(c.blind_yaw_max, c.blind_yaw_rate * steps)
+
+
+class WideGrids:
+    """Submap grids for widened windows (`Submap.wide_grid`), the last two kept (a scan tries ≤ 2 submaps)."""
+
+    def __init__(self) -> None:
+        self._grids: dict[tuple[int, bool, int], MatchGrid] = {}
+
+    def get(self, sm: Submap, radius: float) -> MatchGrid:
+        key = (sm.anchor, sm.coverage is not None, math.ceil(radius))
+        if key not in self._grids:
+            self._grids[key] = sm.wide_grid(math.ceil(radius))
+            while len(self._grids) > 2:
+                self._grids.pop(next(iter(self._grids)))
+        return self._grids[key]
 
 
 def rotation_rival(grid: MatchGrid, points: np.ndarray, guess: se2.PoseTuple, window_xy: float, window_yaw: float,

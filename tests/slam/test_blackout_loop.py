@@ -85,3 +85,29 @@ def test_blind_widening_closes_the_loop(runs: dict[str, tuple[LogSlam, np.ndarra
     for c in slam.loops.active.values():
         e = se2_between(se2_between(tuple(ref[c.target]), tuple(ref[c.source])), c.relative)
         assert math.hypot(e[0], e[1]) < 0.3 and abs(e[2]) < math.radians(2)
+
+
+def _wall(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    n = int(math.hypot(x1 - x0, y1 - y0) / 0.05) + 1
+    return np.column_stack([np.linspace(x0, x1, n), np.linspace(y0, y1, n)])
+
+
+def test_a_widened_match_must_stand_out() -> None:
+    """`slam.loop_blind.distinct`: in a straight corridor (two walls) a scan fits anywhere along it, so the
+    match is rejected; with a cross wall closing one end the fit is unique and accepted."""
+    from slam.csm import MatchGrid, search
+    from slam.loop_blind import distinct
+
+    corridor = np.vstack([_wall(-15, -1, 15, -1), _wall(-15, 1, 15, 1)])
+    closed = np.vstack([corridor, _wall(3, -1, 3, 1)])
+    scan = np.vstack([_wall(-4, -1, 2.9, -1), _wall(-4, 1, 2.9, 1), _wall(2.9, -1, 2.9, 1)])  # sensor frame
+    scan = scan[::3]
+    for world, expected in ((corridor, False), (closed, True)):
+        grid = MatchGrid(world, 0.1, 0.1, margin=2 * 6.0 + 1.0)
+        guess = (0.4, 0.3, math.radians(5))  # the truth is (0.1, 0, 0)
+        res = search(grid, scan, guess, window_xy=6.0, window_yaw=math.radians(40), min_score=0.3)
+        assert res is not None
+        if expected:
+            assert math.hypot(res.pose[0] - 0.1, res.pose[1]) < 0.15 and abs(res.pose[2]) < math.radians(2)
+        assert distinct(grid, scan, guess, res.pose, res.score, 6.0, math.radians(40), math.radians(8), 0.9,
+                        10.0) is expected

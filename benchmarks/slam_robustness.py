@@ -44,6 +44,7 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from benchmarks._blackout import blackout, gap_report  # noqa: E402
 from benchmarks.slam_real import DATA, find_logs, log_name  # noqa: E402
 from sim.config import load_yaml  # noqa: E402
 from sim.transforms import se2_between, se2_compose  # noqa: E402
@@ -122,20 +123,21 @@ def _noodom(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
 
 PERTURB: dict[str, Callable[[LoadedLog, np.random.Generator], LoadedLog]] = {
     "base": lambda log, rng: log, "drop2": _drop2, "odom": _odom, "range": _range, "beams2": _beams2,
-    "noodom": _noodom, "yawbias": _yawbias}
+    "noodom": _noodom, "yawbias": _yawbias, "blackout": lambda log, rng: blackout(log, rng)[0]}
 
 
-def run_one(log: LoadedLog, cfg: LogSlamConfig) -> dict[str, Any]:
+def run_one(log: LoadedLog, cfg: LogSlamConfig, spans: list[tuple[int, int]] | None = None) -> dict[str, Any]:
     """Run SLAM; ATE, CPU, and the final graph's closures checked against the reference relative poses."""
     from slam import log_loops
 
     coverage_pairs: set[tuple[int, int]] = set()
     orig_verify = log_loops.LoopFinder.verify
 
-    def verify(self: log_loops.LoopFinder, i: int, sm: Submap, radius: float) -> log_loops.Closure:
+    def verify(self: log_loops.LoopFinder, i: int, sm: Submap, radius: float, yaw: float | None = None
+               ) -> log_loops.Closure:
         if sm.coverage is not None:  # measurement only: remember which pairs came from coverage candidates
             coverage_pairs.add((i, sm.anchor))
-        return orig_verify(self, i, sm, radius)
+        return orig_verify(self, i, sm, radius, yaw)
 
     offs: list[tuple[float, float]] = []  # (correction m, path back to the submap m) of each accepted closure
     orig_add = log_loops.LoopFinder.add
@@ -182,6 +184,8 @@ def run_one(log: LoadedLog, cfg: LogSlamConfig) -> dict[str, Any]:
                        "over_0.5m": sum(o > 0.5 for o, _ in big), "over_1m": sum(o > 1.0 for o, _ in big),
                        "largest": [f"{o:.2f}m after {d:.0f}m" for o, d in big[:3]]}
     row["wrong"] = [f"{s}->{t}:{m:.2f}m" for m, s, t in sorted(worst, reverse=True)[:4]]
+    if spans is not None:
+        row["gaps"] = gap_report(log, spans, est)
     return row
 
 
@@ -208,8 +212,9 @@ def main() -> int:
         if base.reference is None:
             continue
         for kind in kinds:
-            log = PERTURB[kind](base, np.random.default_rng(args.seed))
-            row = {"log": log_name(path), "perturb": kind, **run_one(log, cfg)}
+            rng = np.random.default_rng(args.seed)
+            log, spans = blackout(base, rng) if kind == "blackout" else (PERTURB[kind](base, rng), None)
+            row = {"log": log_name(path), "perturb": kind, **run_one(log, cfg, spans)}
             rows.append(row)
             print(json.dumps(row), flush=True)
     print(f"\n{time.perf_counter() - t_start:.0f} s wall\n")

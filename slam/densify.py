@@ -109,7 +109,10 @@ class Densifier:
             for _, a in sorted(near)[: c.per_keyframe]:
                 key = (a, -1 if c.spatial_map is None else int(path[i] // (c.min_path_separation / 4)))
                 if key not in maps:
-                    maps[key] = self._map(a, i, poses, path)
+                    built = self._map(a, i, poses, path)
+                    if built is None:  # its scans saw nothing (a laser blackout)
+                        continue
+                    maps[key] = built
                     if len(maps) > _MAPS_KEPT:  # bounded memory on long logs (a grid is ~0.3–1 MB)
                         maps.popitem(last=False)
                 maps.move_to_end(key)
@@ -145,7 +148,7 @@ class Densifier:
         s.refresh_poses()
         return True
 
-    def _map(self, a: int, i: int, poses: np.ndarray, path: np.ndarray) -> tuple[MatchGrid, IcpTarget]:
+    def _map(self, a: int, i: int, poses: np.ndarray, path: np.ndarray) -> tuple[MatchGrid, IcpTarget] | None:
         """The scans around anchor a at their optimised poses, in a's frame."""
         c, s, lc = self.config, self.slam, self.slam.config.loops
         if c.spatial_map is None:
@@ -158,6 +161,8 @@ class Densifier:
             idx = idx[np.linspace(0, len(idx) - 1, 40).astype(int)]
         rel = se2.between_many(np.tile(poses[a], (len(idx), 1)), poses[idx])
         pts = np.vstack([se2.transform_points(tuple(rel[n]), s.points[k]) for n, k in enumerate(idx)])
+        if len(pts) < 10:
+            return None
         pts = pts[first_per_cell(np.floor(pts / (lc.resolution / 2)).astype(np.int64))]
         return MatchGrid(pts, lc.resolution, lc.sigma, margin=c.window_xy + 1.0), IcpTarget.from_points(pts)
 

@@ -85,6 +85,18 @@ class LoopConfig(StrictModel):
     radius_drift: float = Field(0.04, ge=0, description="radius growth per m of path (odometry drift)")
     radius_max: float = Field(4.0, gt=0, description="m")
     yaw_window: float = Field(math.radians(30), gt=0, description="rotation search ± this, rad")
+    blind_radius_rate: float = Field(0.15, ge=0, description="the radius grows by this per m of *blind* path "
+                                     "(steps the front end could not match: a laser dropout, a featureless "
+                                     "hall; the estimate rode on the odometry; steps without odometry do not "
+                                     "count) since the submap or the last closure, beyond `radius_max` (0: off), "
+                                     "m/m")
+    blind_radius_max: float = Field(10.0, gt=0, description="… at most this much more, m")
+    blind_yaw_rate: float = Field(math.radians(1.0), ge=0, description="… and the rotation window by this, rad/m")
+    blind_yaw_max: float = Field(math.radians(60), gt=0, description="… at most this much more, rad")
+    blind_exclude_yaw: float = Field(math.radians(8), gt=0, description="a match in a widened window must "
+                                     "stand out (`slam.loop_blind`): no pose of the window farther than 0.5 m "
+                                     "(same rotation) or this (rad) from it may score above `weak_max_rival` "
+                                     "of its score")
     max_candidates: int = Field(2, ge=1, description="submaps verified per scan")
     descriptor_rings: int = Field(24, ge=2)
     descriptor_max_distance: float = Field(0.15, gt=0, description="ring-CDF distance gate (0 … 1)")

@@ -27,6 +27,7 @@ from slam.csm import search
 from slam.edge_switch import rank_edges
 from slam.icp import icp
 from slam.loop_batch import AnchorTable, BuiltCache, chi2_at, within
+from slam.loop_blind import WideGrids, distinct, widening
 from slam.loop_closure import descriptor_distance, ring_descriptor
 from slam.loop_coverage import rival
 from slam.loop_groups import Pending, largest_group
@@ -79,6 +80,7 @@ class LoopFinder:
         self._cache = BuiltCache(config.max_built)
         self.deferred: list[int] = []  # factor indices of closures added without optimising (`slam.loop_batch`)
         self._deferred_since = math.inf
+        self._widened = WideGrids()  # grids for windows widened by blind path
 
     @property
     def accepted(self) -> int:
@@ -94,7 +96,8 @@ class LoopFinder:
     def step(self, i: int) -> None:
         c, s = self.config, self.slam
         path = s.path
-        if not self.anchors or path[i] - path[self.anchors[-1]] >= c.submap_spacing:
+        if (not self.anchors or path[i] - path[self.anchors[-1]] >= c.submap_spacing) and len(s.points[i]):
+            # (a blind scan anchors nothing: its submap could be empty)
             self.anchors.append(i)
         # freeze submaps the robot has driven past (anchors are in path order: the unfrozen ones are a suffix)
         for w, (store, dist) in enumerate(((self.submaps, c.submap_distance), (self.wide, c.coverage_submap_distance))):
@@ -108,8 +111,8 @@ class LoopFinder:
         if path[i] - self._last_try < c.every_distance or len(s.points[i]) < c.min_points:
             return
         self._last_try = path[i]
-        for sm, radius in self.candidates(i):
-            closure = self.verify(i, sm, radius)
+        for sm, radius, yaw in self.candidates(i):
+            closure = self.verify(i, sm, radius, yaw)
             if closure.accepted:
                 break
 
@@ -126,17 +129,20 @@ class LoopFinder:
         scans = [(se2_between(anchor, s.poses[k]), s.points[k]) for k in idx]  # poses frozen now
         return Submap(a, scans, self.descriptor(a), c.resolution, c.sigma, c.radius_max + 1.0, coverage)
 
-    def candidates(self, i: int) -> list[tuple[Submap, float]]:
-        """(submap, search radius) of frozen submaps near scan i in the estimate, most similar first; if there
-        are none and `coverage` is on, the long submaps that cover scan i (`slam.loop_coverage`)."""
+    def candidates(self, i: int) -> list[tuple[Submap, float, float]]:
+        """(submap, search radius, rotation window) of frozen submaps near scan i in the estimate, most similar
+        first; if there are none and `coverage` is on, the long submaps that cover scan i (`slam.loop_coverage`).
+        The radius grows with the path since the submap or the last closure (capped at `radius_max`), and beyond
+        that with the *blind* path (unmatched steps) since then, which has no such bound on its drift."""
         c, s = self.config, self.slam
         path = s.path
         here = s.poses[i]
-        found: list[tuple[float, int, float]] = []
+        found: list[tuple[float, int, float, float]] = []
         keys, apath, axy = self._tables[0].get(self.submaps, self.slam.poses, self.slam.path)
         sep = path[i] - apath
         drift = np.minimum(sep, path[i] - self._last_closure_path + c.submap_distance)
-        radius = np.minimum(c.radius_max, c.radius_base + c.radius_drift * drift)
+        extra, yaw = widening(c, s.blind, path, self._last_closure_path, i, keys)
+        radius = np.minimum(c.radius_max, c.radius_base + c.radius_drift * drift) + extra
         dist = np.hypot(axy[:, 0] - here[0], axy[:, 1] - here[1]) if len(keys) else np.zeros(0)
         for n in np.nonzero((sep >= c.min_path_separation + c.submap_distance)
                             & (dist <= radius + c.submap_distance))[0]:
@@ -144,35 +150,36 @@ class LoopFinder:
             desc = float(descriptor_distance(self.submaps[a].descriptor, self.descriptor(i))[0])
             if desc > c.descriptor_max_distance:
                 continue
-            found.append((desc + 0.02 * float(dist[n]), a, float(radius[n])))
+            found.append((desc + 0.02 * float(dist[n]), a, float(radius[n]), float(yaw[n])))
         found.sort()
         if not found and c.coverage:
             return self._covering(i)
-        return [(self.submaps[a], r) for _, a, r in found[: c.max_candidates]]
+        return [(self.submaps[a], r, y) for _, a, r, y in found[: c.max_candidates]]
 
-    def _covering(self, i: int) -> list[tuple[Submap, float]]:
+    def _covering(self, i: int) -> list[tuple[Submap, float, float]]:
         c, s = self.config, self.slam
         path, here, probe = s.path, s.poses[i], self._probe(i)
-        found: list[tuple[float, int, float]] = []
+        found: list[tuple[float, int, float, float]] = []
         keys, apath, axy = self._tables[1].get(self.wide, self.slam.poses, self.slam.path)
         near = within(axy, here, c.coverage_reach) \
             & (path[i] - apath >= c.min_path_separation + c.coverage_submap_distance)
-        for a in keys[near].tolist():
+        extra, yaw = widening(c, s.blind, path, self._last_closure_path, i, keys[near])
+        for a, e, y in zip(keys[near].tolist(), extra.tolist(), yaw.tolist(), strict=True):
             sm, sep, p = self.wide[a], path[i] - path[a], s.poses[a]
             if sm.coverage is None:
                 continue
             drift = min(sep, path[i] - self._last_closure_path + c.coverage_submap_distance)
-            radius = min(c.radius_max, c.radius_base + c.radius_drift * drift)
+            radius = min(c.radius_max, c.radius_base + c.radius_drift * drift) + e
             if float(sm.coverage.covered(probe, se2_between(p, here), radius).mean()) >= c.coverage_min_share:
-                found.append((-sep, a, radius))  # the longest loop first: it bounds the most drift
+                found.append((-sep, a, radius, y))  # the longest loop first: it bounds the most drift
         found.sort()
-        return [(self.wide[a], r) for _, a, r in found[: c.coverage_candidates]]
+        return [(self.wide[a], r, y) for _, a, r, y in found[: c.coverage_candidates]]
 
     def _probe(self, i: int) -> np.ndarray:
         pts = self.slam.points[i]
         return pts[np.linspace(0, len(pts) - 1, min(len(pts), 120)).astype(int)]
 
-    def verify(self, i: int, sm: Submap, radius: float) -> Closure:
+    def verify(self, i: int, sm: Submap, radius: float, yaw: float | None = None) -> Closure:
         c, s = self.config, self.slam
         a = sm.anchor
         guess = se2_between(s.poses[a], s.poses[i])
@@ -185,7 +192,9 @@ class LoopFinder:
         self._cache.touch(2 * a + (sm.coverage is not None), sm)
         sub = pts[np.linspace(0, len(pts) - 1, min(len(pts), n)).astype(int)]
         weak = c.weak_min_score if sm.coverage is not None and self.config.groups.enabled else None
-        res = search(sm.grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window,
+        widened = radius > c.radius_max + 1e-9 or (yaw is not None and yaw > c.yaw_window + 1e-9)
+        grid = self._widened.get(sm, radius) if radius > c.radius_max + 1e-9 else sm.grid
+        res = search(grid, sub, guess, window_xy=radius, window_yaw=c.yaw_window if yaw is None else yaw,
                      max_range_for_step=angle_range,
                      min_score=c.min_score if weak is None else min(weak, c.min_score))
         if res is None:
@@ -202,6 +211,11 @@ class LoopFinder:
             # a corridor's walls fit anywhere along it: the match must stand out (coverage has no descriptor)
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
                                         "not_distinct"))
+        if widened and not distinct(grid, sub, guess, res.pose, res.score, radius, yaw or c.yaw_window,
+                                    c.blind_exclude_yaw, c.weak_max_rival, angle_range):
+            # the blind path widened the window: aliases (a corridor's width, a square room's turn) fit in it
+            return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,
+                                        "not_distinct_blind"))
         if not strong:  # too little overlap to trust alone: only a group of agreeing closures may add it
             self._try_group(Pending(a, i, fit.pose, cov, res.score, fit.inlier_ratio, fit.rmse))
             return self._record(Closure(i, a, fit.pose, res.score, fit.inlier_ratio, fit.rmse, False,

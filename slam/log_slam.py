@@ -79,6 +79,7 @@ class LogSlam:
         self.points: list[np.ndarray] = []  # thinned returns per node, base frame
         self.no_return: list[np.ndarray] = []
         self.path: list[float] = []  # cumulative path length at each node
+        self.blind: list[float] = []  # … of it on steps the front end could not match, on odometry
         self.stamps: list[float] = []
         self.odometry: list[se2.PoseTuple | None] = []
         self.stats = FrontEndStats()
@@ -125,6 +126,7 @@ class LogSlam:
             pose = self._start
             self.graph.add_pose(pose)
             self._append(scan.stamp, pose, pts, no_ret, o, 0.0)
+            self.blind.append(0.0)
             self.stats.times.append(time.perf_counter() - t0)
             self.stats.cpu_times.append(time.process_time() - c0)
             return Pose2D(*pose)
@@ -143,7 +145,11 @@ class LogSlam:
             pose, rel = matched, se2_between(prev, matched)
         self.graph.add_pose(pose, rel, cov, self._switchable(i, rel, cov) if matched is not None else None)
         self.edges.append((i - 1, i, rel, cov))
-        self._append(scan.stamp, pose, pts, no_ret, o, self.path[-1] + math.hypot(rel[0], rel[1]))
+        step = math.hypot(rel[0], rel[1])
+        self._append(scan.stamp, pose, pts, no_ret, o, self.path[-1] + step)
+        # dead reckoning on odometry drifts at a bounded rate the loop search can widen for; a step with
+        # neither (the motion prior's guess) has no such bound
+        self.blind.append(self.blind[-1] + (step if matched is None and has_odom else 0.0))
         if cfg.loops.enabled:
             self.loops.step(i)
         self.stats.times.append(time.perf_counter() - t0)
@@ -185,7 +191,10 @@ class LogSlam:
         fe = self.config.frontend
         if len(pts) < 10:
             return None, self._odom_cov
-        grid, target = self._local_map(fill=not has_odom)
+        local = self._local_map(fill=not has_odom)
+        if local is None:  # the window's scans saw nothing (a laser blackout longer than the window)
+            return None, self._odom_cov
+        grid, target = local
         sub = subsample(pts, fe.csm_points)
         res = None
         if has_odom:
@@ -313,7 +322,7 @@ class LogSlam:
         syaw = fe.odom_step_sigma_yaw + fe.odom_step_sigma_per_rad * turn + fe.odom_step_sigma_yaw_per_m * dist
         return np.diag([sxy ** 2, sxy ** 2, syaw ** 2])
 
-    def _local_map(self, fill: bool = False) -> tuple[MatchGrid, IcpTarget]:
+    def _local_map(self, fill: bool = False) -> tuple[MatchGrid, IcpTarget] | None:
         """The recent scans at their current poses, rebuilt when the robot moved or the poses changed.
         `fill`: the match grid also covers the gaps between returns on one surface (`slam.surface_fill`),
         for the wide search of a step without odometry; ICP always sees the returns only."""
@@ -337,6 +346,9 @@ class LogSlam:
         if len(idx) > fe.local_map_scans:
             idx = idx[np.linspace(0, len(idx) - 1, fe.local_map_scans).astype(int)]
         pts = np.vstack([se2.transform_points(self.poses[k], self.points[k]) for k in idx])
+        if len(pts) < 10:
+            self._local = None
+            return None
         pts = thin(pts, fe.resolution / 2)
         if fe.local_map_min_log_odds is not None:  # drop what the window's scans saw through
             self._evidence.sync(idx, self.poses, self.points)

@@ -29,6 +29,13 @@ class Submap:
             self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
         return self._built
 
+    def wide_grid(self, window: float) -> MatchGrid:
+        """A match grid (not kept) whose zero margin holds a ±`window` search: the branch-and-bound bounds of a
+        block that starts off the grid read 0, so a window wider than the margin could prune the best pose."""
+        res, sigma, _ = self._grid_args
+        pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
+        return MatchGrid(pts, res, sigma, margin=2 * window + 1.0)
+
     def release(self) -> None:
         self._built = None
 

@@ -137,8 +137,7 @@ def main() -> int:
             row.update(old_ate=old["ate"], old_rpe_r=old["rot_deg"], old_ms=old["ms"], old_loops=old["loops"])
         rows.append(row)
         print(json.dumps(row), flush=True)
-        # Free this log's whole SLAM state before the next log runs: alive, it slows the garbage collector's full
-        # passes over the next log (freiburg-079's state added ~1 ms/scan of CPU to the logs measured after it).
+        # Free this log's SLAM state before the next log runs, so the next log is not measured beside it in memory.
         del slam, log
         gc.collect()
     print(f"\noutputs in {out_root}\n")

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from sim.types import Pose2D
+from slam.log_config import LogSlamConfig
+from slam.log_slam import LogSlam
 from tests.slam import synth
 
 SEGS = synth.room()
@@ -61,3 +63,16 @@ def _mid(a: Pose2D, b: Pose2D, f: float) -> Pose2D:
 
 def _odom(o: Pose2D, t: float) -> str:
     return f"ODOM {o.x:.6f} {o.y:.6f} {o.yaw:.6f} 0.5 0.0 0.0 {t:.6f} synth {t:.6f}"
+
+
+def run_scored(path: str | Path, cfg: LogSlamConfig) -> tuple[LogSlam, np.ndarray, float]:
+    """Run the log SLAM on a written log: (the SLAM, the log's reference poses, ATE RMSE against them)."""
+    from slam.log_eval import evaluate
+    from slam.log_run import load_log, run_slam
+
+    log = load_log(path, cfg)
+    assert log.reference is not None
+    slam = run_slam(log, cfg)
+    ate = evaluate(slam.trajectory()[1], log.reference)["ate_rmse"]
+    assert isinstance(ate, float)
+    return slam, log.reference, ate

@@ -12,8 +12,6 @@ import numpy as np
 import pytest
 
 from slam.log_config import LogSlamConfig
-from slam.log_eval import evaluate
-from slam.log_run import load_log, run_slam
 from slam.log_slam import LogSlam
 from tests.slam import carmen_synth, synth
 
@@ -49,11 +47,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[LogSlam, n
     out = {}
     for name, loops in (("capped", {"blind_radius_rate": 0.0, "blind_yaw_rate": 0.0}), ("default", {})):
         cfg = LogSlamConfig(loops=loops)
-        log = load_log(path, cfg)
-        assert log.reference is not None
-        slam = run_slam(log, cfg)
-        ate = evaluate(slam.trajectory()[1], log.reference)["ate_rmse"]
-        out[name] = (slam, log.reference, float(ate))  # type: ignore[arg-type]
+        out[name] = carmen_synth.run_scored(path, cfg)
     return out
 
 

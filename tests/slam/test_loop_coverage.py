@@ -13,8 +13,6 @@ import pytest
 
 from sim.transforms import se2_between
 from slam.log_config import LogSlamConfig
-from slam.log_eval import evaluate
-from slam.log_run import load_log, run_slam
 from slam.log_slam import LogSlam
 from slam.loop_coverage import Coverage
 from tests.slam import carmen_synth, synth
@@ -51,11 +49,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[LogSlam, n
         # with the front end off every step is blind: keep the windows capped (the blind widening is
         # tests/slam/test_blackout_loop.py's subject)
         cfg = LogSlamConfig(frontend=FRONT_END_OFF, loops={**loops, "blind_radius_rate": 0.0, "blind_yaw_rate": 0.0})
-        log = load_log(path, cfg)
-        assert log.reference is not None
-        slam = run_slam(log, cfg)
-        ate = evaluate(slam.trajectory()[1], log.reference)["ate_rmse"]
-        out[name] = (slam, log.reference, float(ate))  # type: ignore[arg-type]
+        out[name] = carmen_synth.run_scored(path, cfg)
     return out
 
 

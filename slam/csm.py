@@ -97,6 +97,13 @@ def first_per_cell(cells: np.ndarray) -> np.ndarray:
     return np.sort(first)
 
 
+
+def thin(points: np.ndarray, spacing: float) -> np.ndarray:
+    """One point per `spacing` cell (the first in scan order), scan order kept."""
+    if len(points) == 0:
+        return points
+    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]
+
 def _zero_border(a: np.ndarray) -> np.ndarray:
     a[0, :] = a[-1, :] = 0.0
     a[:, 0] = a[:, -1] = 0.0

@@ -30,7 +30,7 @@ from pydantic import Field
 from sim.config import StrictModel
 from sim.transforms import se2_between
 from slam import se2
-from slam.csm import MatchGrid, first_per_cell, search
+from slam.csm import MatchGrid, search, thin
 from slam.densify_groups import add_groups, coverage_matches
 from slam.icp import IcpTarget, icp
 
@@ -163,7 +163,7 @@ class Densifier:
         pts = np.vstack([se2.transform_points(tuple(rel[n]), s.points[k]) for n, k in enumerate(idx)])
         if len(pts) < 10:
             return None
-        pts = pts[first_per_cell(np.floor(pts / (lc.resolution / 2)).astype(np.int64))]
+        pts = thin(pts, lc.resolution / 2)
         return MatchGrid(pts, lc.resolution, lc.sigma, margin=c.window_xy + 1.0), IcpTarget.from_points(pts)
 
 

@@ -115,9 +115,11 @@ class InterlaceDeskew:
             return points
         out = points.copy()
         h = 0.5 * t  # both halves to the middle of the two sweeps: the time a blurred scan's match stands for
-        out[odd] = se2.transform_points((velocity[0] * h, velocity[1] * h, velocity[2] * h), points[odd])
-        back = se2.from_matrix(np.linalg.inv(se2.to_matrix((velocity[0] * h, velocity[1] * h, velocity[2] * h))))
-        out[~odd] = se2.transform_points(back, points[~odd])
+        half = (velocity[0] * h, velocity[1] * h, velocity[2] * h)
+        out[odd] = se2.transform_points(half, points[odd])
+        # (the matrix inverse, not se2_inverse: the two differ in the last bit, and freiburg-079's ATE moves by
+        # up to 5 mm with such a difference — the figures in docs/benchmarks-slam.md are with this one)
+        out[~odd] = se2.transform_points(se2.from_matrix(np.linalg.inv(se2.to_matrix(half))), points[~odd])
         return out
 
 

@@ -66,9 +66,10 @@ def run_slam(log: LoadedLog, config: LogSlamConfig, progress: Progress | None = 
     n = len(log.records)
     t0 = time.perf_counter()
     for k, rec in enumerate(log.records):
-        rate = None if log.odom_rates is None or not np.isfinite(log.odom_rates[k]).all() \
-            else tuple(float(v) for v in log.odom_rates[k])
-        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]), rate=rate,  # type: ignore[arg-type]
+        r = None if log.odom_rates is None else log.odom_rates[k]
+        rate = (float(r[0]), float(r[1]), float(r[2]), float(r[3])) if r is not None and np.isfinite(r).all() \
+            else None
+        slam.add_scan(rec.scan, rec.odom, bool(log.odom_valid[k]), rate=rate,
                       lookahead=[r.scan for r in log.records[k + 1:k + 1 + config.lookahead.depth]])
         if progress is not None and (k % 25 == 0 or k == n - 1):
             progress(k + 1, n, 1000 * (time.perf_counter() - t0) / (k + 1))

@@ -25,7 +25,7 @@ from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.alloc import retain_freed_memory
-from slam.csm import CsmResult, MatchGrid, first_per_cell, search
+from slam.csm import CsmResult, MatchGrid, search, thin
 from slam.densify import Densifier
 from slam.deskew import InterlaceDeskew, step_velocity
 from slam.edge_switch import Surface
@@ -43,13 +43,6 @@ from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
 from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
-
-
-def thin(points: np.ndarray, spacing: float) -> np.ndarray:
-    """One point per `spacing` cell (the first in scan order), scan order kept."""
-    if len(points) == 0:
-        return points
-    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]
 
 
 def subsample(points: np.ndarray, n: int) -> np.ndarray:
@@ -202,25 +195,25 @@ class LogSlam:
                          min_score=fe.min_score, prior_weight_xy=fe.odometry_trust_xy,
                          prior_weight_yaw=fe.odometry_trust_yaw)
         wide = res is None
+        wp = subsample(pts, fe.wide_points)  # the wide searches' points
         if wide:
-            res = search(grid, subsample(pts, fe.wide_points), guess, window_xy=fe.wide_window_xy,
+            res = search(grid, wp, guess, window_xy=fe.wide_window_xy,
                          window_yaw=fe.wide_window_yaw, min_score=fe.wide_min_score, top_level=4,
                          max_range_for_step=5.0, prior_weight_xy=self.config.motion_prior.weight_xy,
                          prior_weight_yaw=self.config.motion_prior.weight_yaw)
         mp = self.config.motion_prior
         ws = WideSearch(fe.wide_window_xy, fe.wide_window_yaw, fe.wide_min_score, mp.weight_xy, mp.weight_yaw)
         if wide and (res is None or ws.at_edge(res.pose, guess, grid.resolution)):
-            res = escalated(ws, grid, subsample(pts, fe.wide_points), guess, self.config.hypotheses.escalate)
+            res = escalated(ws, grid, wp, guess, self.config.hypotheses.escalate)
         seeded: list[CsmResult] = []  # other motion models' matches (`slam.motion_models`)
         if wide and not has_odom:
-            res, seeded = with_models(ws, grid, subsample(pts, fe.wide_points), self.poses, guess, res,
-                                      self.config.hypotheses.models)
+            res, seeded = with_models(ws, grid, wp, self.poses, guess, res, self.config.hypotheses.models)
         if res is None:
             return None, self._odom_cov
         self._surface = None
         if wide and self._following:
             following = [self._preprocess(s)[0] for s in self._following]
-            wp, hy, extra = subsample(pts, fe.wide_points), self.config.hypotheses, []
+            hy, extra = self.config.hypotheses, []
             if hy.to_lookahead and self.config.lookahead.enabled:
                 alt = alternative(grid, wp, res, guess, ws, hy)
                 extra = ([] if alt is None else [alt]) + seeded

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam import se2
-from slam.csm import MatchGrid, first_per_cell
+from slam.csm import MatchGrid, thin
 from slam.icp import IcpTarget
 from slam.loop_coverage import Coverage
 
@@ -25,7 +25,7 @@ class Submap:
     def _build(self) -> tuple[MatchGrid, IcpTarget]:
         if self._built is None:
             res, sigma, margin = self._grid_args
-            pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
+            pts = self._points()
             self._built = (MatchGrid(pts, res, sigma, margin=margin), IcpTarget.from_points(pts))
         return self._built
 
@@ -33,8 +33,11 @@ class Submap:
         """A match grid (not kept) whose zero margin holds a ±`window` search: the branch-and-bound bounds of a
         block that starts off the grid read 0, so a window wider than the margin could prune the best pose."""
         res, sigma, _ = self._grid_args
-        pts = _thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), res / 2)
-        return MatchGrid(pts, res, sigma, margin=2 * window + 1.0)
+        return MatchGrid(self._points(), res, sigma, margin=2 * window + 1.0)
+
+    def _points(self) -> np.ndarray:
+        """The scans' returns in the anchor's frame, one per half grid cell."""
+        return thin(np.vstack([se2.transform_points(p, pts) for p, pts in self._scans]), self._grid_args[0] / 2)
 
     def release(self) -> None:
         self._built = None
@@ -46,7 +49,3 @@ class Submap:
     @property
     def target(self) -> IcpTarget:
         return self._build()[1]
-
-
-def _thin(points: np.ndarray, spacing: float) -> np.ndarray:
-    return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]

@@ -271,7 +271,6 @@ class TrafficManager:
             self._arrive(i, now)
         if self.withdraw != "off":
             self._withdraw(now)
-
         # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
         #    the one after when it continues straight on (no stop at the centre)
         queued = sched.head_step < BIG

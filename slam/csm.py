@@ -104,6 +104,12 @@ def thin(points: np.ndarray, spacing: float) -> np.ndarray:
         return points
     return points[first_per_cell(np.floor(points / spacing).astype(np.int64))]
 
+
+def subsample(points: np.ndarray, n: int) -> np.ndarray:
+    """At most n points, evenly spaced in scan order."""
+    return points if len(points) <= n else points[np.linspace(0, len(points) - 1, n).astype(int)]
+
+
 def _zero_border(a: np.ndarray) -> np.ndarray:
     a[0, :] = a[-1, :] = 0.0
     a[:, 0] = a[:, -1] = 0.0

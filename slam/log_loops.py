@@ -18,13 +18,11 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import gtsam
 import numpy as np
 
-from sim.transforms import se2_between, se2_compose
+from sim.transforms import se2_between
 from slam import se2
 from slam.csm import search
-from slam.edge_switch import rank_edges
 from slam.icp import icp
 from slam.loop_batch import AnchorTable, BuiltCache, chi2_at, within
 from slam.loop_blind import WideGrids, distinct, widening
@@ -32,7 +30,8 @@ from slam.loop_closure import descriptor_distance, ring_descriptor
 from slam.loop_coverage import rival
 from slam.loop_groups import Pending, largest_group
 from slam.loop_submap import Submap
-from slam.pose_graph import IndeterminateGraph, Kernel, gaussian
+from slam.loop_switch import named_edges, switch_edge, unswitch
+from slam.pose_graph import IndeterminateGraph, Kernel
 
 if TYPE_CHECKING:
     from slam.log_config import LoopConfig
@@ -72,7 +71,6 @@ class LoopFinder:
         self.active: dict[int, Closure] = {}  # graph factor index → accepted closure still in the graph
         self._edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
         self.pending: list[Pending] = []  # verified but inconsistent closures (`slam.loop_groups`)
-        self._old_edge: dict[int, tuple[int, int, se2.PoseTuple, np.ndarray]] = {}
         self.switched: list[int] = []  # front-end edges moved to their alternative peak by a loop group
         self._floor = np.diag([config.sigma_floor_xy ** 2, config.sigma_floor_xy ** 2, config.sigma_floor_yaw ** 2])
         self._frozen = [0, 0]  # anchors[:n] have their submap / coverage submap (anchors are in path order)
@@ -277,9 +275,10 @@ class LoopFinder:
             self._accept(added, fits, broken)  # fits, contradicting at most a few accepted closures
             return
         self._take_out(added)
-        for e, d in self._named_edges(members)[: self.config.edge_switch.tries]:
+        held = [(c.target, c.source) for c in self.active.values()]
+        for e, d in named_edges(s, self.config.edge_switch, members, held)[: self.config.edge_switch.tries]:
             try:
-                switched = self._switch_edge(e, d)
+                switched = switch_edge(s, e, d)
             except IndeterminateGraph:  # the graph was restored without the switch
                 continue
             added, fits, broken = self._add_group(members)
@@ -288,7 +287,7 @@ class LoopFinder:
                 self._accept(added, fits, broken)
                 return
             self._take_out(added)
-            self._unswitch(switched)
+            unswitch(s, switched)
 
     def _add_group(self, members: list[Pending]) -> tuple[dict[int, Pending], dict[int, Pending], list[int]]:
         """Add the closures, optimise: (added, those that fit, accepted closures that no longer fit)."""
@@ -327,48 +326,6 @@ class LoopFinder:
             self._last_closure_path = max(self._last_closure_path, s.path[p.source])
         taken = {id(p) for p in added.values()}
         self.pending = [p for p in self.pending if id(p) not in taken]
-
-    def _named_edges(self, members: list[Pending]) -> list[tuple[int, np.ndarray]]:
-        """Wide front-end edges in the loops' common stretch whose score surface has a peak where the group
-        wants the path moved (`slam.edge_switch`), best supported first, with that move (world frame)."""
-        s, cfg = self.slam, self.config.edge_switch
-        if not cfg.enabled:
-            return []
-        moves = np.array([se2_compose(s.poses[p.target], p.relative) for p in members])
-        here = np.array([s.poses[p.source] for p in members])
-        yaw = float(np.median(np.remainder(moves[:, 2] - here[:, 2] + math.pi, math.tau) - math.pi))
-        if abs(yaw) > cfg.max_yaw:
-            return []
-        d = np.median(moves[:, :2] - here[:, :2], axis=0)
-        lo, hi = max(p.target for p in members), min(p.source for p in members)
-        crossed = [(c.target, c.source) for c in self.active.values()]  # edges an accepted closure holds
-        cand = [e for e in range(lo + 1, hi + 1) if not any(t < e <= u for t, u in crossed)]
-        ranked = rank_edges(cand, s.surfaces, s.poses, d, cfg)
-        return [(e, d) for e, _ in ranked]
-
-    def _switch_edge(self, e: int, d: np.ndarray) -> tuple[int, int, gtsam.NonlinearFactor]:
-        """Move front-end edge e so that pose e (and the path after it) shifts by d: (e, new factor index,
-        old factor)."""
-        s = self.slam
-        moved = (s.poses[e][0] + float(d[0]), s.poses[e][1] + float(d[1]), s.poses[e][2])
-        rel = se2_between(s.poses[e - 1], moved)
-        k = next(k for k, (i, j, _, _) in enumerate(s.edges) if i == e - 1 and j == e)
-        cov = s.edges[k][3]
-        index, old = s.graph.swap(s.graph.chain[e], gtsam.BetweenFactorPose2(e - 1, e, gtsam.Pose2(*rel),
-                                                                           gaussian(cov)))
-        s.graph.chain[e] = index
-        self._old_edge[e] = s.edges[k]
-        s.edges[k] = (e - 1, e, rel, cov)  # graph.g2o holds the moved edge
-        return e, index, old
-
-    def _unswitch(self, switched: tuple[int, int, gtsam.NonlinearFactor]) -> None:
-        e, index, old = switched
-        g = self.slam.graph
-        g.chain[e] = g.swap(index, old)[0]
-        k = next(k for k, (i, j, _, _) in enumerate(self.slam.edges) if i == e - 1 and j == e)
-        self.slam.edges[k] = self._old_edge.pop(e)
-        g.converge(max_steps=50)
-        self.slam.refresh_poses()
 
     def flush(self) -> None:
         """Optimise the deferred closures (`slam.loop_batch`) and remove any that is still inconsistent."""

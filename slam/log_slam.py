@@ -15,7 +15,6 @@ import bisect
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import gtsam
 import numpy as np
@@ -25,7 +24,7 @@ from sim.transforms import se2_between, se2_compose
 from sim.types import LidarScan, Pose2D
 from slam import se2
 from slam.alloc import retain_freed_memory
-from slam.csm import CsmResult, MatchGrid, search, thin
+from slam.csm import CsmResult, MatchGrid, search, subsample, thin
 from slam.densify import Densifier
 from slam.deskew import InterlaceDeskew, step_velocity
 from slam.edge_switch import Surface
@@ -33,8 +32,8 @@ from slam.hypotheses import WideSearch, alternative, decide, escalated
 from slam.icp import IcpTarget, icp
 from slam.log_config import LogSlamConfig
 from slam.log_loops import LoopFinder
+from slam.log_stats import FrontEndStats, scan_map
 from slam.lookahead import alternatives, choose, free_space_penalty
-from slam.mapping import OccupancyMapper
 from slam.match_covariance import ambiguous_covariance, translation_surface
 from slam.max_mixture import max_mixture_factor, switchable
 from slam.motion_models import with_models
@@ -43,24 +42,6 @@ from slam.pose_graph import PoseGraph
 from slam.scan_refine import BicubicField, refine
 from slam.submap_grid import HitMissGrid
 from slam.surface_fill import fill_surfaces
-
-
-def subsample(points: np.ndarray, n: int) -> np.ndarray:
-    return points if len(points) <= n else points[np.linspace(0, len(points) - 1, n).astype(int)]
-
-
-@dataclass
-class FrontEndStats:
-    matched: int = 0  # edges from the normal window
-    wide: int = 0  # edges that needed the wide window
-    odometry_only: int = 0  # no match: the odometry (or no motion) with a loose σ
-    ambiguous: int = 0  # wide matches whose score surface has a second peak (edge σ from the surface)
-    lookahead: int = 0  # wide matches with near-tied distinct peaks, decided by the next scans
-    lookahead_switched: int = 0  # … where an alternative peak won
-    local_map_builds: int = 0
-    times: list[float] = field(default_factory=list)  # s of wall time per scan
-    cpu_times: list[float] = field(default_factory=list)  # s of process CPU time per scan (all threads)
-    finish_cpu: float = 0.0  # s of process CPU time in finish() (end-of-log optimisation, `slam.densify`)
 
 
 class LogSlam:
@@ -411,20 +392,5 @@ class LogSlam:
         return np.array(out[: len(self.poses)])
 
     def map(self, poses: np.ndarray | None = None) -> OccupancyGrid:
-        """Occupancy grid from every scan that moved enough since the last integrated one."""
-        cfg = self.config
-        m = cfg.mapping
-        mapper = OccupancyMapper(resolution=m.resolution, log_odds_hit=m.log_odds_hit, log_odds_miss=m.log_odds_miss,
-                                 log_odds_min=m.log_odds_min, log_odds_max=m.log_odds_max,
-                                 occupied_threshold=m.occupied_threshold, free_threshold=m.free_threshold,
-                                 max_range=m.max_range, clear_no_return=False)
-        p = np.asarray(self.poses if poses is None else poses)
-        last: np.ndarray | None = None
-        for k in range(len(p)):
-            if last is not None:
-                d = se2.between_many(last[None], p[k][None])[0]
-                if math.hypot(d[0], d[1]) + abs(d[2]) / 10 < cfg.map_every_distance:
-                    continue
-            mapper.integrate((float(p[k][0]), float(p[k][1]), float(p[k][2])), self.points[k])
-            last = p[k]
-        return mapper.grid()
+        """Occupancy grid from every scan that moved enough since the last integrated one (`slam.log_stats`)."""
+        return scan_map(np.asarray(self.poses if poses is None else poses), self.points, self.config)

@@ -60,7 +60,9 @@ WRONG_M, WRONG_DEG = 0.3, 2.0
 
 def _drop2(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
     ref = log.reference[::2] if log.reference is not None else None
-    return LoadedLog(log.records[::2], log.odom_valid[::2], ref, log.kind)
+    rates = log.odom_rates[::2] if log.odom_rates is not None else None
+    return dataclasses.replace(log, records=log.records[::2], odom_valid=log.odom_valid[::2], reference=ref,
+                               odom_rates=rates)
 
 
 def _odom(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
@@ -81,7 +83,7 @@ def _odom(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
         new = se2_compose(prev_new, inc)
         recs[k] = ScanRecord(r.scan, Pose2D(*new))
         prev_raw, prev_new = raw, new
-    return LoadedLog(recs, log.odom_valid, log.reference, log.kind)
+    return dataclasses.replace(log, records=recs)  # the ODOM rates (deskew's turn rate) keep their own noise
 
 
 def _range(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
@@ -90,14 +92,14 @@ def _range(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
         ranges = r.scan.ranges + rng.normal(0, 0.03, r.scan.ranges.shape)  # inf stays inf
         ranges = np.where(ranges < r.scan.range_min, np.inf, ranges)
         recs.append(ScanRecord(dataclasses.replace(r.scan, ranges=ranges), r.odom))
-    return LoadedLog(recs, log.odom_valid, log.reference, log.kind)
+    return dataclasses.replace(log, records=recs)
 
 
 def _beams2(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
     recs = [ScanRecord(dataclasses.replace(r.scan, ranges=r.scan.ranges[::2].copy(),
                                            angle_increment=2 * r.scan.angle_increment,
                                            hit_bodies=None), r.odom) for r in log.records]
-    return LoadedLog(recs, log.odom_valid, log.reference, log.kind)
+    return dataclasses.replace(log, records=recs)
 
 
 def _yawbias(log: LoadedLog, rng: np.random.Generator, deg_per_m: float = 2.0) -> LoadedLog:
@@ -114,11 +116,15 @@ def _yawbias(log: LoadedLog, rng: np.random.Generator, deg_per_m: float = 2.0) -
         new = se2_compose(prev_new, (dx, dy, dt + math.radians(deg_per_m) * math.hypot(dx, dy)))
         recs[k] = ScanRecord(r.scan, Pose2D(*new))
         prev_raw, prev_new = raw, new
-    return LoadedLog(recs, log.odom_valid, log.reference, log.kind)
+    rates = None
+    if log.odom_rates is not None:  # the same bias in the turn rate: ω + bias · speed
+        rates = log.odom_rates.copy()
+        rates[:, 2] += math.radians(deg_per_m) * np.hypot(rates[:, 0], rates[:, 1])
+    return dataclasses.replace(log, records=recs, odom_rates=rates)
 
 
 def _noodom(log: LoadedLog, rng: np.random.Generator) -> LoadedLog:
-    return LoadedLog(log.records, np.zeros_like(log.odom_valid), log.reference, log.kind)
+    return dataclasses.replace(log, odom_valid=np.zeros_like(log.odom_valid), odom_rates=None)
 
 
 PERTURB: dict[str, Callable[[LoadedLog, np.random.Generator], LoadedLog]] = {

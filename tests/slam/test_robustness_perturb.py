@@ -1,6 +1,7 @@
 """The perturbations of benchmarks/slam_robustness.py do what they say, on a small log built here: scans and
 reference thinned together, beams halved at the right angles, odometry re-chained from noisier increments
-(seeded, with the stated spread, steps without odometry left alone), range noise leaving no-returns alone."""
+(seeded, with the stated spread, steps without odometry left alone), range noise leaving no-returns alone, and
+every copy keeping the log's reference kind and ODOM rates (thinned, biased or dropped with the odometry)."""
 
 from __future__ import annotations
 
@@ -30,7 +31,8 @@ def _log() -> LoadedLog:
         ref.append(pose)
     valid = np.ones(N, dtype=bool)
     valid[50:60] = False
-    return LoadedLog(recs, valid, np.array(ref), "carmen")
+    rates = np.column_stack([np.full(N, 2.0), np.zeros(N), 0.5 * np.sin(np.arange(N) / 10), np.full(N, 0.05)])
+    return LoadedLog(recs, valid, np.array(ref), "carmen", "corrected", rates)
 
 
 def test_drop2_thins_scans_and_reference_together() -> None:
@@ -82,3 +84,21 @@ def test_range_noise_and_no_odometry() -> None:
     finite = np.isfinite(a)
     assert 0.02 < float(np.std(b[finite] - a[finite])) < 0.04
     assert not PERTURB["noodom"](log, np.random.default_rng(1)).odom_valid.any()
+
+
+def test_copies_keep_reference_kind_and_odometry_rates() -> None:
+    log = _log()
+    assert log.odom_rates is not None
+    for name in ("base", "odom", "range", "beams2", "blackout"):
+        out = PERTURB[name](log, np.random.default_rng(1))
+        assert out.reference_kind == "corrected" and out.odom_rates is log.odom_rates, name
+    drop2 = PERTURB["drop2"](log, np.random.default_rng(1))
+    assert drop2.reference_kind == "corrected" and drop2.odom_rates is not None
+    np.testing.assert_array_equal(drop2.odom_rates, log.odom_rates[::2])
+    noodom = PERTURB["noodom"](log, np.random.default_rng(1))
+    assert noodom.reference_kind == "corrected" and noodom.odom_rates is None
+    bias = PERTURB["yawbias"](log, np.random.default_rng(1))
+    assert bias.odom_rates is not None
+    # 2° per metre at 2 m/s: the turn rate gains 4°/s; speeds and intervals are untouched
+    np.testing.assert_allclose(bias.odom_rates[:, 2] - log.odom_rates[:, 2], math.radians(4.0))
+    np.testing.assert_array_equal(bias.odom_rates[:, [0, 1, 3]], log.odom_rates[:, [0, 1, 3]])

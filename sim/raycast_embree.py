@@ -265,7 +265,7 @@ class EmbreeCaster:
             else:  # a later scene only looks closer than the hits so far
                 t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0))
             nearer = t_g < best
-            best[nearer], uids[nearer] = t_g[nearer], u[nearer]
+            best, uids = np.where(nearer, t_g, best), np.where(nearer, u, uids)  # = masked assignment, faster
         hit = np.isfinite(best) & (best <= 1.0)
         return np.where(hit, best, 1.0), np.where(hit, uids, -1)
 

@@ -6,6 +6,7 @@ fans whose rays differ from a cached fan's by one bit."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -97,3 +98,18 @@ def test_a_fan_whose_rays_differ_by_one_bit_is_cast_again(world: World) -> None:
     t3, uid3 = fc.cast(g2, layout, o, d2)
     ref3 = scene.cast(g2, o, d2, np.ones(n))
     assert np.array_equal(t3, ref3[0]) and np.array_equal(uid3, ref3[1])
+
+
+def test_has_dynamic_models_follows_models_added_and_removed(world: World) -> None:
+    """The answer is kept per registry version (asked every cast): adding and removing a movable model flips it."""
+    models = world.models
+    assert not models.has_dynamic_models()
+    crate = box("movable_crate", (0.4, 0.4, 0.4), -4.0, -4.0, 0.2)
+    models.add_model(replace(crate, static=False, links=(replace(crate.links[0], mass=1.0,
+                                                                 inertia=(0.1, 0, 0, 0.1, 0, 0.1)),)))
+    assert models.has_dynamic_models()
+    models.remove("movable_crate")
+    assert not models.has_dynamic_models()
+    models.add_model(box("static_crate", (0.4, 0.4, 0.4), -4.0, -4.0, 0.2))
+    assert not models.has_dynamic_models()
+    models.remove("static_crate")

@@ -78,7 +78,7 @@ class FanCache:
         self.cast_fans += len(missed)
         if missed:
             idx = np.concatenate([np.arange(a, b) for a, b, _ in missed])
-            t_m, u_m = scene.cast(g, np.take(o, idx, axis=0), np.take(d, idx, axis=0), np.ones(idx.size))
+            t_m, u_m = scene.cast(g, o.take(idx, axis=0), d.take(idx, axis=0), np.ones(idx.size))
             t[idx], uid[idx] = t_m, u_m
             at = 0
             for a, b, store in missed:

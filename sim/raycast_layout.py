@@ -76,7 +76,7 @@ def layout_groups(layout: RayLayout, o: np.ndarray, d: np.ndarray) -> RayGroups:
         r0, r1 = layout.range_min, layout.range_max
         want_o = np.column_stack([layout.x + r0 * c, layout.y + r0 * s, layout.z])
         want_d = np.column_stack([(r1 - r0) * c, (r1 - r0) * s, np.zeros_like(a)])
-        if not (_within(np.take(o, at, axis=0), want_o) and _within(np.take(d, at, axis=0), want_d)):
+        if not (_within(o.take(at, axis=0), want_o) and _within(d.take(at, axis=0), want_d)):
             bad = int(np.flatnonzero(~(np.isclose(o[at], want_o, rtol=0, atol=CHECK_TOL).all(axis=1)
                                        & np.isclose(d[at], want_d, rtol=0, atol=CHECK_TOL).all(axis=1)))[0])
             raise _bad(f"ray {int(at[bad])} is not where fan {bad} puts it")

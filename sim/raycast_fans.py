@@ -76,16 +76,19 @@ class FanCache:
                 missed.append((a, b, None))
         self.reused += len(starts) - len(missed)
         self.cast_fans += len(missed)
-        if missed:
+        if len(missed) == len(starts):  # nothing reused (a moving fleet): no gather, no scatter
+            t, uid = t_m, u_m = scene.cast(g, o, d, np.ones(len(o)))
+        elif missed:
             idx = np.concatenate([np.arange(a, b) for a, b, _ in missed])
             t_m, u_m = scene.cast(g, o.take(idx, axis=0), d.take(idx, axis=0), np.ones(idx.size))
             t[idx], uid[idx] = t_m, u_m
+        if missed:
             at = 0
             for a, b, store in missed:
                 if store is not None:
                     self._seen.pop(store, None)
                     self._fans[store] = _Fan(o[a:b].tobytes(), d[a:b].tobytes(), t_m[at:at + b - a].copy(),
-                                           u_m[at:at + b - a].copy(), now)
+                                             u_m[at:at + b - a].copy(), now)
                 at += b - a
         if now % self.max_age == 0:  # forget the fans of robots that moved on
             old = now - self.max_age

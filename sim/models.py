@@ -46,6 +46,7 @@ class ModelRegistry:
         # static scene (obstacle boxes, the ray caster's BVH) key on, so moving a movable model keeps them
         self.static_version = 0
         self._aabb_cache: tuple[int, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._dynamic_cache: tuple[tuple[int, int], bool] | None = None
 
     # ---- building ----------------------------------------------------------------------------------
 
@@ -183,7 +184,12 @@ class ModelRegistry:
         return lo, hi
 
     def has_dynamic_models(self) -> bool:
-        return any(not r.static for r in self.records.values())
+        # Asked several times per physics step (every lidar cast): the answer is kept per registry version
+        # (records are only added or removed with a version bump; the ground plane, added without one, is static).
+        key = (self.version, len(self.records))
+        if self._dynamic_cache is None or self._dynamic_cache[0] != key:
+            self._dynamic_cache = (key, any(not r.static for r in self.records.values()))
+        return self._dynamic_cache[1]
 
     def unstable_model(self) -> str | None:
         for r in self.records.values():

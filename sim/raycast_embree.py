@@ -18,6 +18,7 @@ import numpy as np
 
 from sim import raycast_robots as robots
 from sim import raycast_scene as scene
+from sim.raycast_fans import FanCache
 from sim.raycast_layout import RayLayout, layout_groups
 from sim.raycast_scene import Geometry, Part
 from sim.raycast_shapes import Shape, body_shapes, link_matrix, link_pose, pose_matrices
@@ -48,6 +49,8 @@ class EmbreeCaster:
         self._upright: list[tuple[list[Shape], np.ndarray, float]] = []
         self._forms: dict[int, list[robots.ShapeForm]] = {}  # id(shared shape list) → closed-form shapes
         self._upright_key: tuple[object, ...] | None = None
+        # Static-scene hits of lidar fans whose rays repeat exactly (robots standing still); None: always cast
+        self.fans: FanCache | None = FanCache()
 
     def _mesh_table(self) -> dict[tuple[int, int], list[Mesh | None]]:
         out: dict[tuple[int, int], list[Mesh | None]] = {}
@@ -215,6 +218,8 @@ class EmbreeCaster:
         self._link_templates.clear()
         self._forms.clear()
         self._static_key = self._upright_key = None
+        if self.fans is not None:
+            self.fans = FanCache()
 
     def _reach(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, float] | None:
         """Where the rays can go, for culling robots: the centres of the REACH_CELL cells holding the ray
@@ -255,9 +260,12 @@ class EmbreeCaster:
             for forms, mats, us in posed:
                 robots.cast_posed(rg, o, d, forms, mats, us, z_band, best, uids)
         for g in self._scenes(z_band, (o, d), moving):
-            t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0))  # a later scene only looks closer than the hits so far
+            if g is self._static and layout is not None and self.fans is not None:
+                t_g, u = self.fans.cast(g, layout, o, d)  # full length: the same nearer hits as a limit of best
+            else:  # a later scene only looks closer than the hits so far
+                t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0))
             nearer = t_g < best
-            best[nearer], uids[nearer] = t_g[nearer], u[nearer]
+            best, uids = np.where(nearer, t_g, best), np.where(nearer, u, uids)  # = masked assignment, faster
         hit = np.isfinite(best) & (best <= 1.0)
         return np.where(hit, best, 1.0), np.where(hit, uids, -1)
 

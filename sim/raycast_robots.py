@@ -174,13 +174,13 @@ def _pairs(rg: RayGroups, xy: np.ndarray, rho: float) -> tuple[np.ndarray, np.nd
     gi, rj = _near(rg.centre, xy, rg.reach + pad)
     if gi.size == 0:
         return gi, rj
-    v = xy[rj] - rg.centre[gi]
+    v = xy.take(rj, axis=0) - rg.centre.take(gi, axis=0)  # .take: a[idx]'s rows, ~4x faster
     dist = np.hypot(v[:, 0], v[:, 1])
     h = rg.spread[gi]
     # Out of reach, or behind every ray of the group (each starts farther out along its heading than the
     # robot's disc reaches: a lidar and its own robot).
     keep = (dist <= rg.reach + h + rho + 1e-6) & (rg.outward[gi] <= dist + rho + 1e-6)
-    gi, rj, v, dist, h = gi[keep], rj[keep], v[keep], dist[keep], h[keep]
+    gi, rj, v, dist, h = gi[keep], rj[keep], np.compress(keep, v, axis=0), dist[keep], h[keep]
     near = dist <= h + rho + 1e-6  # the robot overlaps the group's disc: every heading
     width = rho + np.minimum(h, rg.offset[gi]) + 1e-6
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -263,8 +263,8 @@ def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFo
     if close.size == 0:
         return
     ray, rob = ray[close], rob[close]
-    m = inv[rob]
-    bo, bd = _apply(m, o[ray]) + m[:, :, 3], _apply(m, d[ray])
+    m = inv.take(rob, axis=0)  # .take: the same rows as inv[rob], ~4x faster
+    bo, bd = _apply(m, o.take(ray, axis=0)) + m[:, :, 3], _apply(m, d.take(ray, axis=0))
     t = np.full(ray.size, np.inf)
     for f in forms:
         m = f.inv_local

@@ -140,21 +140,23 @@ def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[
     o32, d32 = o.astype(np.float32), d.astype(np.float32)
     prim, t32, ng = _run(g, o32, d32, limit.astype(np.float32))  # first pass: every ray
     active = np.flatnonzero(prim >= 0)
-    prim, t_emb, ng = prim[active], t32[active].astype(np.float64), ng[active]
+    # Rows of 2-D arrays are gathered with .take(axis=0): the same copy as a[idx], ~4x faster at these sizes.
+    prim, t_emb, ng = prim[active], t32[active].astype(np.float64), ng.take(active, axis=0)
     off = np.zeros(active.size)
     for k in range(MAX_PASSES):
         shape = g.prim_shape[prim]
         kind = g.kind[shape]
         t = t_emb.copy()
         # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on.
-        da = d32[active]
+        da = d32.take(active, axis=0)
         back = g.convex[prim] & (ng[:, 0] * da[:, 0] + ng[:, 1] * da[:, 1] + ng[:, 2] * da[:, 2] > 0)
         t[back] = np.inf
         curved = (kind >= SPHERE) & (kind <= CAPSULE)
         if curved.any():
             ci = np.flatnonzero(curved)
             sub = active[ci]
-            t[ci] = _refine(g, shape[ci], kind[ci], o[sub] + off[ci, None] * d[sub], d[sub])
+            ds = d.take(sub, axis=0)
+            t[ci] = _refine(g, shape[ci], kind[ci], o.take(sub, axis=0) + off[ci, None] * ds, ds)
         done = np.isfinite(t)
         rows = active[done]
         t_hit[rows] = off[done] + t[done]
@@ -163,23 +165,23 @@ def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[
             break
         passed = ~done
         active, off = active[passed], off[passed] + t_emb[passed]
-        off += STEP_M / np.linalg.norm(d[active], axis=1)
+        off += STEP_M / np.linalg.norm(d.take(active, axis=0), axis=1)
         keep = off < limit[active]
         active, off = active[keep], off[keep]
         if active.size == 0:
             break
-        oa = (o[active] + off[:, None] * d[active]).astype(np.float32)
-        prim, t32, ng = _run(g, oa, d32[active], (limit[active] - off).astype(np.float32))
+        oa = (o.take(active, axis=0) + off[:, None] * d.take(active, axis=0)).astype(np.float32)
+        prim, t32, ng = _run(g, oa, d32.take(active, axis=0), (limit[active] - off).astype(np.float32))
         hit = prim >= 0
         active, off = active[hit], off[hit]
-        prim, t_emb, ng = prim[hit], t32[hit].astype(np.float64), ng[hit]
+        prim, t_emb, ng = prim[hit], t32[hit].astype(np.float64), np.compress(hit, ng, axis=0)
         if active.size == 0:
             break
     return t_hit, uid
 
 
 def _refine(g: Geometry, shape: np.ndarray, kind: np.ndarray, o: np.ndarray, d: np.ndarray) -> np.ndarray:
-    inv = g.inv[shape]
+    inv = g.inv.take(shape, axis=0)
     lo = np.einsum("bij,bj->bi", inv[:, :3, :3], o) + inv[:, :3, 3]
     ld = np.einsum("bij,bj->bi", inv[:, :3, :3], d)
     r, h = g.radius[shape], g.half[shape]

@@ -101,6 +101,10 @@ def lidar_rays(n: int, beams: int, movable: int = 0) -> tuple[World, np.ndarray,
 
 def compare(n: int, beams: int, wall_s: float, movable: int = 0) -> CastResult:
     world, o, e, layout = lidar_rays(n, beams, movable)
+    # The same rays are cast again and again here: the fan cache (sim/raycast_fans.py, for robots standing still)
+    # would serve every repeat from memory, so it is off and each side really casts every time.
+    world.set_raycaster("embree")
+    world.rays.embree.fans = None
     try:
         sides = ("embree", "bare", "rebuild", "pybullet")
         times: dict[str, list[float]] = {k: [] for k in sides}

@@ -7,35 +7,22 @@ fans whose rays differ from a cached fan's by one bit."""
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from sim import Pose2D, World
+from sim import World
 from sim import raycast_scene as scene
 from sim.raycast_fans import FanCache
 from sim.raycast_layout import RayLayout
-from sim.sdf_primitives import box, cylinder, ground_plane
-from sim.sdf_writer import save_sdf
-from sim.types import WorldDescription
+from sim.sdf_primitives import box
+from tests.sim.lidar_fleet import lidar_fleet
 
 
 @pytest.fixture(scope="module")
 def world(tmp_path_factory: pytest.TempPathFactory) -> World:
-    """Kinematic robots with 360-beam lidars among static boxes and a cylinder; every third one drives."""
-    tmp = tmp_path_factory.mktemp("fans")
-    models = [ground_plane(size=40), box("wall", (0.3, 9.0, 1.0), 4.5, 0.0),
-              box("crate", (0.8, 0.5, 1.0), -2.0, 2.5, 0.4), cylinder("post", 0.25, 1.0, 1.0, -2.5)]
-    path = tmp / "fans.world"
-    save_sdf(WorldDescription(name="fans", models=tuple(models)), str(path))
-    w = World.from_sdf(Path(path), physics_hz=10.0, fidelity="kinematic", seed=5)
-    rng = np.random.default_rng(7)
-    for k in range(10):
-        w.spawn_robot(f"r{k}", Pose2D(-3.0 + 1.4 * (k % 5), -1.2 + 2.0 * (k // 5), float(rng.uniform(-3, 3))))
-    for k in range(0, 10, 3):
-        w.set_cmd_vel(f"r{k}", 0.3, 0.5)
-    return w
+    """The shared lidar fleet (tests/sim/lidar_fleet.py)."""
+    return lidar_fleet(tmp_path_factory.mktemp("fans"), "fans", world_seed=5, heading_seed=7)
 
 
 def test_cached_fans_equal_a_fresh_cast(world: World) -> None:

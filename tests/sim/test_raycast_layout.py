@@ -20,6 +20,7 @@ from sim.raycast_layout import RayLayout
 from sim.sdf_primitives import box, cylinder, ground_plane, sphere
 from sim.sdf_writer import save_sdf
 from sim.types import Collision, Link, Mesh, ModelDescription, Pose3D, Visual, WorldDescription
+from tests.sim.lidar_fleet import lidar_fleet
 
 # A cube with a dented top (concave as a trimesh); a movable body collides with its convex hull.
 OBJ = """v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nv 0.5 0.5 0.4
@@ -62,20 +63,8 @@ def _three_ways(w: World, o: np.ndarray, e: np.ndarray, layout: RayLayout | None
 
 @pytest.fixture(scope="module")
 def fleet(tmp_path_factory: pytest.TempPathFactory) -> World:
-    """Kinematic robots with 360-beam lidars among static boxes and cylinders (no movable model: the robots
-    go through the upright closed form)."""
-    tmp = tmp_path_factory.mktemp("layout")
-    models = [ground_plane(size=40), box("wall", (0.3, 9.0, 1.0), 4.5, 0.0),
-              box("crate", (0.8, 0.5, 1.0), -2.0, 2.5, 0.4), cylinder("post", 0.25, 1.0, 1.0, -2.5)]
-    path = tmp / "scene.world"
-    save_sdf(WorldDescription(name="layout", models=tuple(models)), str(path))
-    w = World.from_sdf(Path(path), physics_hz=10.0, fidelity="kinematic", seed=3)
-    rng = np.random.default_rng(11)
-    for k in range(10):
-        w.spawn_robot(f"r{k}", Pose2D(-3.0 + 1.4 * (k % 5), -1.2 + 2.0 * (k // 5), float(rng.uniform(-3, 3))))
-    for k in range(0, 10, 3):
-        w.set_cmd_vel(f"r{k}", 0.3, 0.5)
-    return w
+    """The shared lidar fleet (tests/sim/lidar_fleet.py)."""
+    return lidar_fleet(tmp_path_factory.mktemp("layout"), "layout", world_seed=3, heading_seed=11)
 
 
 def test_lidar_layout_equals_bare_rays_and_rayTestBatch(fleet: World) -> None:

@@ -39,22 +39,20 @@ import numpy as np
 from fleet.traffic.admission import layer_admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
-from fleet.traffic.motion import advance, leader_cap
+from fleet.traffic.motion import drive
 from fleet.traffic.parking import Parking
 from fleet.traffic.pibt import PIBT
+from fleet.traffic.priority import priorities
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
 from fleet.traffic.stalls import close_stall, open_stalls
-from fleet.traffic.withdraw import flush, free_ahead
+from fleet.traffic.withdraw import withdraw_step
 from sim.errors import ErrorCode, FleetError
-from sim.transforms import wrap_angles
 
 if TYPE_CHECKING:
     from fleet.service import FleetService
 
-TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
-URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
 
@@ -270,7 +268,7 @@ class TrafficManager:
         for i in np.flatnonzero(moving & (self.s >= 1.0 - 1e-9) & ((self.claim >= 0) | near)).tolist():
             self._arrive(i, now)
         if self.withdraw != "off":
-            self._withdraw(now)
+            withdraw_step(self, now)
         # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
         #    the one after when it continues straight on (no stop at the centre)
         queued = sched.head_step < BIG
@@ -289,7 +287,7 @@ class TrafficManager:
         if self.congestion is not None:
             self.congestion.observe(np.concatenate([self.a, self.b]), dt)
         # 4. profiles and commands (numpy over all robots)
-        v, w = self._drive(now, dt, pos, yaw)
+        v, w = drive(self, now, dt, pos, yaw)
         # 5. plan one more PIBT step when someone with a goal has nothing queued; robots with `window` moves
         #    queued already plan no move of their own (bounded look-ahead; as in Causal-PIBT only robots ready to
         #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
@@ -322,42 +320,6 @@ class TrafficManager:
             i = self._idx[h.robot]
             self.goal[i] = self._idle_goal(i)
 
-    def _withdraw(self, now: float) -> None:
-        here = np.where(self.claim >= 0, self.claim, self.b)
-        if self.withdraw in ("loops", "both"):
-            for i in np.flatnonzero(self.sched.queued >= 2).tolist():
-                self.stats["withdrawn"] += self.sched.withdraw_loops(i, int(here[i]))
-        if self.withdraw == "flush" and now >= self._flush_at:
-            self._flush_at = now + self.flush_s
-            self.stats["withdrawn"] += flush(self.sched, here)
-        if self.withdraw in ("ahead", "both"):
-            priority = self._priority(now)
-            waiting = (priority >= URGENT) & (self.a == self.b) & (self.sched.head_step < BIG)
-            self.stats["withdrawn"] += free_ahead(self.sched, here, priority, np.flatnonzero(waiting).tolist())
-
-    def _drive(self, now: float, dt: float, pos: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xy, cell, sched = self.grid.xy, self.grid.cell, self.sched
-        moving = self.a != self.b
-        seg = xy[self.b] - xy[self.a]
-        unit = seg / cell
-        err = np.where(moving, wrap_angles(np.arctan2(seg[:, 1], seg[:, 0]) + (self.sign < 0) * math.pi - yaw), 0.0)
-        rolling = moving & ((self.s > 0.0) | (self.sd > 0.0))
-        go = moving & (rolling | (np.abs(err) < TURN_TOL)) & (self.hold <= now)
-        stop = np.where(self.claim >= 0, 2.0, 1.0)
-        me = np.arange(len(self.names))
-        for lead in (sched.leaving[self.b], np.where(self.claim >= 0, sched.leaving[self.claim], -1)):
-            ok = (lead >= 0) & (lead != me) & moving
-            if ok.any():
-                cap = leader_cap(xy[self.a[ok]], seg[ok], pos[lead[ok]], self.gap)
-                stop[ok] = np.minimum(stop[ok], cap)
-        self.s, self.sd = advance(self.s, self.sd, stop, go, self.peak * self.scale, self.accel, dt)
-        ref = xy[self.a] + self.s[:, None] * seg
-        e = ref - pos
-        along = e[:, 0] * unit[:, 0] + e[:, 1] * unit[:, 1]
-        cross = -e[:, 0] * unit[:, 1] + e[:, 1] * unit[:, 0]
-        v = np.where(rolling | go, self.sign * (self.sd * cell + 2.0 * np.clip(along, -0.3, 0.1)), 0.0)
-        w = np.where(moving, np.clip(4.0 * err + 3.0 * cross * rolling, -self.max_w, self.max_w), 0.0)
-        return v, w
 
     # ---- events of one robot (O(changed)) ----------------------------------------------------------------
 
@@ -407,7 +369,7 @@ class TrafficManager:
 
     def _plan(self, now: float) -> None:
         tail = self.sched.tail
-        priority = self._priority(now)
+        priority = priorities(self, now)
         if self.congestion is not None:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
@@ -418,28 +380,6 @@ class TrafficManager:
         self.sched.append(nxt)
         self.stats["steps"] += 1
         self.stats["pushes"] += len(self.pibt.pushes)
-
-    def _priority(self, now: float) -> np.ndarray:
-        """PIBT's priority of every robot now (marks robots that have become urgent)."""
-        since = self.best_at if self.priority == "since_progress" else self.since
-        priority = (now - since) * (self.goal != self.sched.tail) + self._tie
-        if self.parking is not None and self.admission is not None and self.admission.queue:
-            held = [self._idx[h.robot] for h in self.admission.queue]  # on the way to park: below every goal
-            priority[held] = self._tie[held]
-        if self.urgent_s is not None:
-            # Aging: a robot that has not come closer for urgent_s outranks every other robot until it reaches
-            # its goal (earliest first among the urgent, a fixed order), so two robots cannot take turns
-            # pushing each other back as their priorities cross.
-            late = self.pending & np.isinf(self.urgent_at) & (now - self.best_at >= self.urgent_s)
-            self.urgent_at[late] = now
-            self.urgent_d[late] = self.best[late]
-            urgent = np.isfinite(self.urgent_at)
-            # Among the urgent: the longest without progress first (since_progress), so an urgent robot pushed
-            # back by older urgent ones gets ahead of them until it has regained its ground; each change of order
-            # needs a robot to come strictly closer than its best, so the order cannot cycle for ever.
-            order = self.best_at if self.urgent_rank == "since_progress" else self.urgent_at
-            priority = np.where(urgent, URGENT + (now - order), priority)
-        return priority
 
     def describe(self) -> dict[str, Any]:
         return {"robots": len(self.names), "cells": len(self.grid), "cell_m": self.grid.cell,

@@ -11,7 +11,17 @@ delays without any timing assumption.
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+from sim.transforms import wrap_angles
+
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
+
+TURN_TOL = 0.25  # rad: a robot faces its next cell within this before it drives (and turns on as it goes)
 
 
 def leader_cap(start: np.ndarray, seg: np.ndarray, lead: np.ndarray, gap: float) -> np.ndarray:
@@ -38,3 +48,30 @@ def advance(s: np.ndarray, sd: np.ndarray, stop: np.ndarray, go: np.ndarray, vma
     target = np.where(go, np.minimum(sd + accel * dt, vmax), np.maximum(sd - accel * dt, 0.0))
     sd = np.maximum(np.minimum(target, brake), 0.0)
     return np.minimum(s + sd * dt, np.maximum(stop, s)), sd
+
+
+def drive(tm: TrafficManager, now: float, dt: float, pos: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every robot's (v, ω) this control period: turn to face the next cell, then follow the profile's reference
+    along the segment, held back by its leader (numpy over all robots)."""
+    xy, cell, sched = tm.grid.xy, tm.grid.cell, tm.sched
+    moving = tm.a != tm.b
+    seg = xy[tm.b] - xy[tm.a]
+    unit = seg / cell
+    err = np.where(moving, wrap_angles(np.arctan2(seg[:, 1], seg[:, 0]) + (tm.sign < 0) * math.pi - yaw), 0.0)
+    rolling = moving & ((tm.s > 0.0) | (tm.sd > 0.0))
+    go = moving & (rolling | (np.abs(err) < TURN_TOL)) & (tm.hold <= now)
+    stop = np.where(tm.claim >= 0, 2.0, 1.0)
+    me = np.arange(len(tm.names))
+    for lead in (sched.leaving[tm.b], np.where(tm.claim >= 0, sched.leaving[tm.claim], -1)):
+        ok = (lead >= 0) & (lead != me) & moving
+        if ok.any():
+            cap = leader_cap(xy[tm.a[ok]], seg[ok], pos[lead[ok]], tm.gap)
+            stop[ok] = np.minimum(stop[ok], cap)
+    tm.s, tm.sd = advance(tm.s, tm.sd, stop, go, tm.peak * tm.scale, tm.accel, dt)
+    ref = xy[tm.a] + tm.s[:, None] * seg
+    e = ref - pos
+    along = e[:, 0] * unit[:, 0] + e[:, 1] * unit[:, 1]
+    cross = -e[:, 0] * unit[:, 1] + e[:, 1] * unit[:, 0]
+    v = np.where(rolling | go, tm.sign * (tm.sd * cell + 2.0 * np.clip(along, -0.3, 0.1)), 0.0)
+    w = np.where(moving, np.clip(4.0 * err + 3.0 * cross * rolling, -tm.max_w, tm.max_w), 0.0)
+    return v, w

@@ -9,7 +9,7 @@ from fleet.traffic.admission import ADMISSION
 from sim.errors import ErrorCode, FleetError, unknown_name
 
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
-URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (manager._priority)
+URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (priority.priorities)
 WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdrawn (withdraw.py)
 
 

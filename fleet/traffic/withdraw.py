@@ -16,9 +16,15 @@ now stays there)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from fleet.traffic.priority import URGENT, priorities
 from fleet.traffic.schedule import BIG, Schedule
+
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
 
 
 def _cells(sched: Schedule, i: int, here: int) -> list[int]:
@@ -137,3 +143,19 @@ def flush(sched: Schedule, here: np.ndarray) -> int:
             sched.before[j] = -1
     sched.head_step[:] = BIG
     return total
+
+
+def withdraw_step(tm: TrafficManager, now: float) -> None:
+    """The layer's `withdraw` setting, once per control tick: loops, moves ahead of urgent robots at rest, or a
+    flush every `flush_s`."""
+    here = np.where(tm.claim >= 0, tm.claim, tm.b)
+    if tm.withdraw in ("loops", "both"):
+        for i in np.flatnonzero(tm.sched.queued >= 2).tolist():
+            tm.stats["withdrawn"] += tm.sched.withdraw_loops(i, int(here[i]))
+    if tm.withdraw == "flush" and now >= tm._flush_at:
+        tm._flush_at = now + tm.flush_s
+        tm.stats["withdrawn"] += flush(tm.sched, here)
+    if tm.withdraw in ("ahead", "both"):
+        priority = priorities(tm, now)
+        waiting = (priority >= URGENT) & (tm.a == tm.b) & (tm.sched.head_step < BIG)
+        tm.stats["withdrawn"] += free_ahead(tm.sched, here, priority, np.flatnonzero(waiting).tolist())

@@ -10,6 +10,7 @@ import pytest
 
 from fleet import FleetConfig, FleetService
 from fleet.traffic import TrafficManager, enable_traffic
+from fleet.traffic.priority import priorities
 from sim import Pose2D
 from sim.errors import FleetError
 from tests.fleet.test_traffic_async import world
@@ -28,7 +29,7 @@ def test_urgency_ends_after_urgent_cells_of_progress(tmp_path: Path, cells: int 
         to = tm.grid.fields.to(goal)
         assert float(to[tm.a[0]]) == 7.0
         tm.best_at[0] = 0.0
-        tm._priority(12.5)  # 12.5 s without progress: urgent, at best distance 7
+        priorities(tm, 12.5)  # 12.5 s without progress: urgent, at best distance 7
         assert math.isfinite(tm.urgent_at[0]) and tm.urgent_d[0] == 7.0
         node_at = {float(to[n]): n for n in range(len(tm.grid)) if abs(tm.grid.xy[n][1] + 0.5) < 0.1}
         for k, d in enumerate([6.0, 5.0, 4.0, 3.0]):  # one cell closer each time
@@ -40,9 +41,9 @@ def test_urgency_ends_after_urgent_cells_of_progress(tmp_path: Path, cells: int 
                 break
         if cells is not None:  # urgent again after another urgent_s without progress, from its new best
             t = float(tm.best_at[0]) + 12.0
-            tm._priority(t - 0.1)
+            priorities(tm, t - 0.1)
             assert math.isinf(tm.urgent_at[0])
-            tm._priority(t)
+            priorities(tm, t)
             assert math.isfinite(tm.urgent_at[0]) and tm.urgent_d[0] == 7.0 - cells
         with pytest.raises(FleetError, match="urgent_cells"):
             TrafficManager(svc, urgent_cells=0)

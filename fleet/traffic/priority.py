@@ -1,0 +1,36 @@
+"""PIBT's priority of the traffic layer's robots: the time since the goal was given (or since the robot last came
+closer), and aging: a robot without progress for `urgent_s` outranks every robot that is not urgent."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
+
+URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
+
+
+def priorities(tm: TrafficManager, now: float) -> np.ndarray:
+    """PIBT's priority of every robot now (marks robots that have become urgent)."""
+    since = tm.best_at if tm.priority == "since_progress" else tm.since
+    priority = (now - since) * (tm.goal != tm.sched.tail) + tm._tie
+    if tm.parking is not None and tm.admission is not None and tm.admission.queue:
+        held = [tm._idx[h.robot] for h in tm.admission.queue]  # on the way to park: below every goal
+        priority[held] = tm._tie[held]
+    if tm.urgent_s is not None:
+        # Aging: a robot that has not come closer for urgent_s outranks every other robot until it reaches
+        # its goal (earliest first among the urgent, a fixed order), so two robots cannot take turns
+        # pushing each other back as their priorities cross.
+        late = tm.pending & np.isinf(tm.urgent_at) & (now - tm.best_at >= tm.urgent_s)
+        tm.urgent_at[late] = now
+        tm.urgent_d[late] = tm.best[late]
+        urgent = np.isfinite(tm.urgent_at)
+        # Among the urgent: the longest without progress first (since_progress), so an urgent robot pushed
+        # back by older urgent ones gets ahead of them until it has regained its ground; each change of order
+        # needs a robot to come strictly closer than its best, so the order cannot cycle for ever.
+        order = tm.best_at if tm.urgent_rank == "since_progress" else tm.urgent_at
+        priority = np.where(urgent, URGENT + (now - order), priority)
+    return priority

@@ -14,7 +14,7 @@ import numpy as np
 import pybullet as p
 from numpy.typing import ArrayLike
 
-from sim import world_motion, world_sensors
+from sim import world_models, world_motion, world_sensors
 from sim.drive import limit_twist
 from sim.errors import ErrorCode, FleetError, unknown_name
 from sim.kinematic_collisions import RawContact
@@ -26,6 +26,7 @@ from sim.robot_spec import RobotSpec, default_robot_path, load_robot_spec
 from sim.robot_table import RobotTable
 from sim.sensors.inertial import imu_reading, odometry_reading
 from sim.sensors.lidar import LidarConfig
+from sim.snapshot import restore_snapshot, take_snapshot
 from sim.types import CameraImage, Contact, ContactReading, Fidelity, ImuReading, LidarScan, OdometryReading, Pose2D
 from sim.world_types import CommandResult, ModelState, SensorFault
 
@@ -329,13 +330,9 @@ class World:
         return (name, links.get(link_index, links.get(-1, "")))
 
     def snapshot(self) -> Any:
-        from sim.snapshot import take_snapshot
-
         return take_snapshot(self)
 
     def restore(self, snap: Any) -> None:
-        from sim.snapshot import restore_snapshot
-
         restore_snapshot(self, snap)
 
     def close(self) -> None:
@@ -351,44 +348,28 @@ class World:
     # ---- models and physics (sim/world_models.py) -------------------------------------------------
 
     def spawn_model(self, **kw: Any) -> list[str]:
-        from sim import world_models
-
         return world_models.spawn_model(self, **kw)
 
     def remove_model(self, name: str) -> None:
-        from sim import world_models
-
         world_models.remove_model(self, name)
 
     def list_models(self) -> list[ModelState]:
-        from sim import world_models
-
         return [world_models.model_state(self, n) for n in [*self.models.names(), *self.table.names]]
 
     def get_model_state(self, name: str) -> ModelState:
-        from sim import world_models
-
         return world_models.model_state(self, name)
 
     def set_model_state(self, name: str, **kw: Any) -> ModelState:
-        from sim import world_models
-
         return world_models.set_model_state(self, name, **kw)
 
     def apply_force(self, name: str, force: tuple[float, float, float],
                     torque: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
-        from sim import world_models
-
         world_models.apply_force(self, name, force, torque)
 
     def physics_properties(self) -> dict[str, Any]:
-        from sim import world_models
-
         return world_models.physics_properties(self)
 
     def set_physics_properties(self, **kw: Any) -> dict[str, Any]:
-        from sim import world_models
-
         return world_models.set_physics_properties(self, **kw)
 
     # ---- world files ---------------------------------------------------------------------------------

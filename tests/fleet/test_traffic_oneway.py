@@ -11,7 +11,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from fleet.traffic import PIBT
-from fleet.traffic.lanes import DirectedFields, corridors, one_way
+from fleet.traffic.lanes import DirectedFields, _orient, corridors, one_way
 
 # Two two-wide aisles (x = 0-1, 6-7) joined by three one-lane rows (y = 0, 2, 4); a dead end (x = 8-9, y = 2).
 LADDER = """
@@ -69,6 +69,32 @@ def test_one_way_keeps_the_graph_strongly_connected() -> None:
     assert a[node[(6, 2)], node[(5, 2)]] == 0 and a[node[(5, 2)], node[(6, 2)]] > 0
     assert a[node[(2, 2)], node[(1, 2)]] == 0 and a[node[(1, 2)], node[(2, 2)]] > 0
     assert a[node[(8, 2)], node[(9, 2)]] > 0 and a[node[(9, 2)], node[(8, 2)]] > 0  # the dead end stays two-way
+
+
+def test_orienting_a_corridor_removes_exactly_its_reverse_moves_and_mouths() -> None:
+    adj, _, _ = grid(LADDER)
+    for chain, forward in itertools.product(corridors(adj), (True, False)):
+        c = chain if forward else chain[::-1]
+        ref = adj.toarray()
+        for u, v in itertools.pairwise(c):
+            ref[v, u] = 0.0
+        outside = [u for u in np.flatnonzero(ref[c[0]]).tolist() if u not in c]
+        ref[c[0], outside] = 0.0
+        for u in np.flatnonzero(adj.toarray()[c[-1]]).tolist():
+            if u not in c:
+                ref[u, c[-1]] = 0.0
+        out = _orient(adj, chain, forward)
+        assert np.array_equal(out.toarray(), ref) and out.nnz == np.count_nonzero(ref)
+
+
+def test_a_map_with_many_corridors_makes_each_one_way_and_stays_connected() -> None:
+    rungs = 40  # two two-wide rails joined by 40 one-lane rungs of 4 cells
+    text = "\n".join(["." * (2 * rungs + 1)] * 2 + [" " + ". " * rungs] * 4 + ["." * (2 * rungs + 1)] * 2)
+    adj, ij, _ = grid(text.replace(" ", "#"))
+    out, chains = one_way(adj, ij)
+    assert len(corridors(adj)) == rungs and len(chains) == rungs and strong(out) == strong(adj) == 1
+    # each rung loses its 3 reverse moves and its 2 wrong-way mouth moves
+    assert adj.nnz - out.nnz == rungs * (3 + 2)
 
 
 def test_the_only_link_between_two_rooms_stays_two_way() -> None:

@@ -11,8 +11,8 @@ import numpy as np
 
 from planning.grid import OccupancyGrid
 from slam import se2
+from slam.factories import make_mapper
 from slam.log_config import LogSlamConfig
-from slam.mapping import OccupancyMapper
 
 
 @dataclass
@@ -31,11 +31,7 @@ class FrontEndStats:
 
 def scan_map(poses: np.ndarray, points: Sequence[np.ndarray], cfg: LogSlamConfig) -> OccupancyGrid:
     """Occupancy grid from every scan (base-frame `points`) that moved enough since the last integrated one."""
-    m = cfg.mapping
-    mapper = OccupancyMapper(resolution=m.resolution, log_odds_hit=m.log_odds_hit, log_odds_miss=m.log_odds_miss,
-                             log_odds_min=m.log_odds_min, log_odds_max=m.log_odds_max,
-                             occupied_threshold=m.occupied_threshold, free_threshold=m.free_threshold,
-                             max_range=m.max_range, clear_no_return=False)
+    mapper = make_mapper(cfg.mapping.model_copy(update={"clear_no_return": False}))  # a log's no-returns clear nothing
     last: np.ndarray | None = None
     for k in range(len(poses)):
         if last is not None:

@@ -19,6 +19,7 @@ A background thread beats `heartbeat_hz` times a second: a world that misses 2 b
 from __future__ import annotations
 
 import json
+import logging
 import math
 import queue
 import threading
@@ -30,104 +31,13 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from fleet.zenoh_api import (
-    Keys,
-    Odom,
-    PoseStamped,
-    Scan,
-    check_name,
-    decode_error,
-    decode_grid,
-    decode_odom,
-    decode_pose,
-    decode_scan,
-    dumps,
-)
+from fleet.agent_link import RobotLink, direct_callback
+from fleet.zenoh_api import Keys, check_name, decode_error, decode_grid, dumps
 from fleet.zenoh_config import ZenohConfig
 from sim.errors import ErrorCode, FleetError
 
 Step = Callable[[int, float], dict[str, tuple[float, float]] | None]
-DECODERS: dict[str, Callable[[bytes], Any]] = {"odom": decode_odom, "scan": decode_scan, "pose": decode_pose,
-                                               "state": json.loads, "imu": json.loads}
-
-
-def _direct(fn: Callable[[Any], Any]) -> zenoh.handlers.Callback[Any]:
-    # On Zenoh's receiving thread: messages stay in the order the world sent them (lock-step relies on it).
-    return zenoh.handlers.Callback(fn, indirect=False)
-
-
-class RobotLink:
-    """One robot as this agent sees it: the latest message of each stream, and commands."""
-
-    def __init__(self, agent: Agent, name: str, streams: Iterable[str]) -> None:
-        self.agent, self.name = agent, name
-        self.latest: dict[str, Any] = {}
-        self._cond = threading.Condition()
-        self._seq = 0
-        keys = agent.keys
-        self._cmd = agent.session.declare_publisher(
-            keys.robot(name, "cmd_vel"), encoding=zenoh.Encoding.APPLICATION_JSON,
-            congestion_control=zenoh.CongestionControl.BLOCK, priority=zenoh.Priority.INTERACTIVE_HIGH, express=True)
-        self._subs = [agent.session.declare_subscriber(keys.robot(name, s), _direct(self._receiver(s)))
-                      for s in streams]
-
-    def _receiver(self, stream: str) -> Callable[[zenoh.Sample], None]:
-        decode = DECODERS[stream]
-
-        def receive(sample: zenoh.Sample) -> None:
-            msg = decode(sample.payload.to_bytes())
-            self.agent._saw(msg["stamp"] if isinstance(msg, dict) else msg.stamp)
-            with self._cond:
-                self.latest[stream] = msg
-                self._cond.notify_all()
-
-        return receive
-
-    @property
-    def odom(self) -> Odom | None:
-        return self.latest.get("odom")
-
-    @property
-    def scan(self) -> Scan | None:
-        return self.latest.get("scan")
-
-    @property
-    def pose(self) -> PoseStamped | None:
-        return self.latest.get("pose")
-
-    def wait(self, stream: str = "scan", timeout: float = 10.0, newer_than: float = -math.inf) -> Any:
-        """The latest message of `stream` stamped after `newer_than` (sim s), waiting up to `timeout` wall s."""
-        def ready() -> bool:
-            m = self.latest.get(stream)
-            return m is not None and (m["stamp"] if isinstance(m, dict) else m.stamp) > newer_than
-
-        with self._cond:
-            if not self._cond.wait_for(ready, timeout):
-                raise FleetError(ErrorCode.TIMEOUT, f"no '{stream}' from robot '{self.name}' within {timeout:g} s",
-                                 "is the robot spawned, the stream enabled, the world running?")
-            return self.latest[stream]
-
-    def drive(self, v: float, w: float, *, tick: int | None = None, duration: float | None = None) -> None:
-        """Publish a velocity command (no reply: rejections arrive in `agent.errors`)."""
-        self._seq += 1
-        msg: dict[str, Any] = {"v": v, "w": w, "agent": self.agent.id, "seq": self._seq, "sent": time.time()}
-        if tick is not None:
-            msg["tick"] = tick
-        if duration is not None:
-            msg["duration"] = duration
-        self._cmd.put(dumps(msg))
-
-    def drive_sync(self, v: float, w: float, duration: float | None = None) -> dict[str, Any]:
-        """A velocity command with a reply: what was applied after clamping, or a FleetError (e.g. LEASE_HELD)."""
-        return self.agent.request("drive", robot=self.name, v=v, w=w, duration=duration)
-
-    def stop(self) -> None:
-        self.drive(0.0, 0.0)
-
-    def close(self) -> None:
-        for s in self._subs:
-            s.undeclare()
-        self._cmd.undeclare()
+log = logging.getLogger("fleetnav.agent")
 
 
 class Agent:
@@ -153,6 +63,7 @@ class Agent:
         self._known: set[str] = set()  # robots the world reported (checked before linking)
         self._beat_stop = threading.Event()
         self._beat: threading.Thread | None = None
+        self.unsynced = False  # velocity commands published since the last sync (close() syncs them)
         self.session: zenoh.Session
 
     def __enter__(self) -> Agent:
@@ -170,8 +81,8 @@ class Agent:
             raise
         k = self.keys
         self._decls = [
-            self.session.declare_subscriber(k.fleet("events"), _direct(self._on_event)),
-            self.session.declare_subscriber(k.agent_errors(self.id), _direct(self._on_error)),
+            self.session.declare_subscriber(k.fleet("events"), direct_callback(self._on_event)),
+            self.session.declare_subscriber(k.agent_errors(self.id), direct_callback(self._on_error)),
             self.session.liveliness().declare_token(k.alive_agent(self.id)),
         ]
         if self.heartbeat_hz > 0:
@@ -193,8 +104,24 @@ class Agent:
             if self._beat_stop.wait(period):
                 return
 
+    def sync(self, timeout: float | None = None) -> float:
+        """Return once the world has applied (or rejected) every velocity command this agent published before the
+        call; returns the world's sim time then. Velocity commands have no reply, and Zenoh may deliver the
+        session's end before its last ones, so close() syncs first: a stop sent just before leaving is not dropped
+        as late (fleet/command/sync goes on cmd_vel's priority, so it is ordered behind them on the link)."""
+        msg = self.query(self.keys.command("sync"), {"agent": self.id}, timeout, express=True,
+                         priority=zenoh.Priority.INTERACTIVE_HIGH, congestion_control=zenoh.CongestionControl.BLOCK)
+        self.unsynced = False
+        return float(msg["result"]["time"])
+
     def close(self) -> None:
-        """Leave: the world releases this agent's leases as soon as its liveliness token disappears."""
+        """Leave (after syncing any velocity command still in flight): the world releases this agent's leases as
+        soon as its liveliness token disappears."""
+        if self.unsynced:
+            try:
+                self.sync(timeout=min(self.timeout, 5.0))
+            except FleetError as exc:  # the world is gone or busy: leave anyway, the commands may be dropped
+                log.info("agent %s: closing without sync: %s", self.id, exc)
         self._beat_stop.set()
         if self._beat is not None:
             self._beat.join(timeout=2)
@@ -290,10 +217,11 @@ class Agent:
         previous holder). Restrict who may do this with Zenoh access control on `fleet/command/override`."""
         return self.request("override", robot=robot, reason=reason, hold_s=hold_s)
 
-    def query(self, key: str, payload: dict[str, Any] | None = None, timeout: float | None = None) -> Any:
-        """One reply from the world: its JSON on success, a FleetError raised on an error reply."""
+    def query(self, key: str, payload: dict[str, Any] | None = None, timeout: float | None = None, **qos: Any) -> Any:
+        """One reply from the world: its JSON on success, a FleetError raised on an error reply (`qos`: Zenoh's
+        priority, express, congestion_control for the query)."""
         body = dumps(payload) if payload is not None else None
-        for reply in self.session.get(key, payload=body, timeout=timeout or self.timeout):
+        for reply in self.session.get(key, payload=body, timeout=timeout or self.timeout, **qos):
             if reply.ok is not None:
                 msg = json.loads(reply.ok.payload.to_bytes())
                 self._saw(msg.get("stamp", 0.0))
@@ -357,7 +285,7 @@ class Agent:
         self._ticks = ticks
         links = [self.robot(r) for r in robots]
         clock = self.session.declare_subscriber(self.keys.fleet("clock"),
-                                                _direct(lambda s: ticks.put(json.loads(s.payload.to_bytes()))))
+                                                direct_callback(lambda s: ticks.put(json.loads(s.payload.to_bytes()))))
         n = 0
         try:
             self.request("lockstep", robots=robots)

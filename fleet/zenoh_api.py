@@ -26,7 +26,7 @@ from sim.types import ImuReading, LidarScan, OdometryReading
 ROOT = "fleetnav/@v1"
 ROBOT_STREAMS = ("odom", "scan", "imu", "pose", "state")
 COMMANDS = ("navigate", "cancel", "task_status", "spawn", "remove", "reset", "drive", "lease", "override", "estop",
-            "rearm", "lockstep")
+            "rearm", "lockstep", "sync")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,63}$")
 
 

@@ -235,7 +235,9 @@ class Commands:
             req = decode(schema, payload, key)
             if hasattr(req, "agent"):
                 check_name("agent id", req.agent)
-            return self._on_sim(lambda: fn(req), in_gate=op != "reset")
+            # reset waits for the sim loop (the tick in progress belongs to the old world); sync too, behind any
+            # command of its agent handed over before it (those went to the loop's queue or ran in the gate)
+            return self._on_sim(lambda: fn(req), in_gate=op not in ("reset", "sync"))
         if key.startswith(f"{k.base}/robot/") and key.endswith("/camera"):
             robot = self._known_robot(k.robot_of(key))  # before any work: a render is the costliest query
             which = decode(CameraReq, payload, key).which
@@ -275,6 +277,7 @@ class Commands:
             "estop": (EstopReq, lambda r: {"stopped": svc.estop(r.robot, r.reason)}),
             "rearm": (RearmReq, lambda r: {"changed": svc.rearm(r.robot)}),
             "lockstep": (LockstepReq, self._lockstep),
+            "sync": (EmptyReq, lambda r: {"time": svc.world.time}),
         }
 
     def _remove(self, r: RobotReq) -> dict[str, Any]:

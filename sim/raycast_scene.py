@@ -27,6 +27,7 @@ THREADS = min(4, os.cpu_count() or 1)  # embreex releases the GIL while it trave
 # Rays per chunk below which one thread does it all: a hand-off costs ~20 µs idle, and on a loaded machine the
 # second thread waits for a core (100 robots × 90 beams, 9,000 rays: no gain at load 4, so it is not split).
 CHUNK_MIN = 16384
+FLAT, CONVEX, CURVED, MISS = range(4)  # what a first-pass hit needs: nothing, a back-face test, a refinement
 _pool: ThreadPoolExecutor | None = None
 
 
@@ -52,6 +53,10 @@ class Geometry:
     half: np.ndarray
     inv: np.ndarray  # (S, 4, 4) world → shape frame
     convex: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # (T,) of a convex shape: by commit
+    # Per triangle, with one more entry at the end for primID −1 (a miss indexes it): FLAT / CONVEX / CURVED /
+    # MISS, and the body uid (−1 for a miss). By commit.
+    tri_class: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    tri_uid: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 Part = tuple[list[Shape], np.ndarray, np.ndarray]  # shapes shared by B bodies, base matrices (B, 4, 4), uids (B,)
@@ -109,19 +114,24 @@ def commit(parts: Sequence[Geometry | None]) -> Geometry | None:
         g.scene = rs.EmbreeScene()
         g.handle = mc.TriangleMesh(g.scene, g.verts.astype(np.float32), g.faces.astype(np.int32))
         g.convex = np.isin(g.kind[g.prim_shape], (BOX, MESH))
+        tri_kind = g.kind[g.prim_shape]
+        cls = np.where(g.convex, CONVEX, np.where((tri_kind >= SPHERE) & (tri_kind <= CAPSULE), CURVED, FLAT))
+        g.tri_class = np.append(cls, MISS).astype(np.int8)
+        g.tri_uid = np.append(g.uid[g.prim_shape], -1).astype(np.int64)
         # The first run commits the scene (builds the BVH): done here, once, before threads share the scene.
         g.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
     return g
 
 
 def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Embree's nearest triangle per ray: (primID, tfar, Ng). Big batches are split over THREADS threads
-    (the traversal runs without the GIL; a committed Embree scene is safe to share)."""
+    """Embree's nearest triangle per ray: (primID, tfar, Ng); tfar is `l32` itself (Embree writes the hit
+    distances over the limits, in place). Big batches are split over THREADS threads (the traversal runs
+    without the GIL; a committed Embree scene is safe to share)."""
     n = len(o32)
     k = min(THREADS, n // CHUNK_MIN)
     if k < 2:
         res = g.scene.run(o32, d32, dists=l32, output=1)
-        return res["primID"], res["tfar"], res["Ng"]
+        return res["primID"], l32, res["Ng"]
     global _pool
     if _pool is None:
         _pool = ThreadPoolExecutor(THREADS - 1, thread_name_prefix="embree")
@@ -129,19 +139,34 @@ def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tupl
     jobs = [_pool.submit(g.scene.run, o32[a:b], d32[a:b], dists=l32[a:b], output=1)
             for a, b in pairwise(cuts[1:])]
     parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)] + [j.result() for j in jobs]
-    return tuple(np.concatenate([r[key] for r in parts]) for key in ("primID", "tfar", "Ng"))
+    return (np.concatenate([r["primID"] for r in parts]), l32, np.concatenate([r["Ng"] for r in parts]))
 
 
 def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest true hit per ray in one scene closer than `limit`: (t in units of d, inf if none; uid or -1)."""
-    n = len(o)
-    t_hit = np.full(n, np.inf)
-    uid = np.full(n, -1, np.int64)
+    """Nearest true hit per ray in one scene closer than `limit`: (t in units of d, inf if none; uid or -1).
+
+    The first pass settles most rays over whole arrays (no gathers): a miss, or a hit on a flat triangle or on
+    the front of a convex shape, is final. Only the few rays that met a curved shape's proxy or the back of a
+    convex shape go on through _continue."""
     o32, d32 = o.astype(np.float32), d.astype(np.float32)
     prim, t32, ng = _run(g, o32, d32, limit.astype(np.float32))  # first pass: every ray
-    active = np.flatnonzero(prim >= 0)
-    # Rows of 2-D arrays are gathered with .take(axis=0): the same copy as a[idx], ~4x faster at these sizes.
-    prim, t_emb, ng = prim[active], t32[active].astype(np.float64), ng.take(active, axis=0)
+    cls = g.tri_class.take(prim)  # primID −1 (a miss) takes the last entry: MISS
+    # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on.
+    back = (ng[:, 0] * d32[:, 0] + ng[:, 1] * d32[:, 1] + ng[:, 2] * d32[:, 2] > 0) & (cls == CONVEX)
+    final = (cls <= CONVEX) & ~back
+    t_hit = np.where(final, t32, np.float32(np.inf)).astype(np.float64)
+    uid = np.where(final, g.tri_uid.take(prim), -1)
+    more = np.flatnonzero(~final & (cls != MISS))
+    if more.size:
+        _continue(g, o, d, d32, limit, more, prim[more], t32[more].astype(np.float64), ng.take(more, axis=0),
+                  t_hit, uid)
+    return t_hit, uid
+
+
+def _continue(g: Geometry, o: np.ndarray, d: np.ndarray, d32: np.ndarray, limit: np.ndarray, active: np.ndarray,
+              prim: np.ndarray, t_emb: np.ndarray, ng: np.ndarray, t_hit: np.ndarray, uid: np.ndarray) -> None:
+    """The rays `active` whose first-pass hit (prim, t_emb, ng) is not final: curved proxies are refined
+    analytically, and rays that passed a proxy or met a back face are cast again from just past that hit."""
     off = np.zeros(active.size)
     for k in range(MAX_PASSES):
         shape = g.prim_shape[prim]
@@ -177,7 +202,6 @@ def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[
         prim, t_emb, ng = prim[hit], t32[hit].astype(np.float64), np.compress(hit, ng, axis=0)
         if active.size == 0:
             break
-    return t_hit, uid
 
 
 def _refine(g: Geometry, shape: np.ndarray, kind: np.ndarray, o: np.ndarray, d: np.ndarray) -> np.ndarray:

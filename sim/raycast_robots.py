@@ -88,7 +88,7 @@ def _shape_t(f: ShapeForm, lo: np.ndarray, ld: np.ndarray) -> np.ndarray:
         return _box(lo, ld, f.half)
     if f.kind == MESH:
         return _convex(lo, ld, f.planes)
-    r, h = np.full(len(lo), f.radius), np.full(len(lo), f.half_length)
+    r, h = f.radius, f.half_length
     if f.kind == SPHERE:
         return exact.sphere(lo, ld, r)
     return exact.cylinder(lo, ld, r, h) if f.kind == CYLINDER else exact.capsule(lo, ld, r, h)

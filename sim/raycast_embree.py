@@ -12,6 +12,7 @@ bare rays get them from sim/raycast_robots.py group_rays.
 
 from __future__ import annotations
 
+import threading
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,6 +22,7 @@ from sim import raycast_scene as scene
 from sim.raycast_fans import FanCache
 from sim.raycast_layout import RayLayout, layout_groups
 from sim.raycast_scene import Geometry, Part
+from sim.raycast_scratch import Scratch
 from sim.raycast_shapes import Shape, body_shapes, link_matrix, link_pose, pose_matrices
 from sim.types import Mesh
 
@@ -51,6 +53,8 @@ class EmbreeCaster:
         self._upright_key: tuple[object, ...] | None = None
         # Static-scene hits of lidar fans whose rays repeat exactly (robots standing still); None: always cast
         self.fans: FanCache | None = FanCache()
+        self._scratch = Scratch()  # the cast's full-length work arrays, reused (sim/raycast_scratch.py)
+        self._lock = threading.Lock()
 
     def _mesh_table(self) -> dict[tuple[int, int], list[Mesh | None]]:
         out: dict[tuple[int, int], list[Mesh | None]] = {}
@@ -235,12 +239,20 @@ class EmbreeCaster:
 
     def cast(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None = None
              ) -> tuple[np.ndarray, np.ndarray]:
+        with self._lock:  # one cast at a time: the work arrays are shared
+            return self._cast(origins, ends, layout)
+
+    def _cast(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None
+              ) -> tuple[np.ndarray, np.ndarray]:
         o = np.asarray(origins, np.float64).reshape(-1, 3)
-        d = np.asarray(ends, np.float64).reshape(-1, 3) - o
-        best = np.full(len(o), np.inf)
-        uids = np.full(len(o), -1, np.int64)
-        if len(o) == 0:
+        n = len(o)
+        if n == 0:
             return np.ones(0), np.full(0, -1, np.int64)
+        s = self._scratch
+        d = np.subtract(np.asarray(ends, np.float64).reshape(-1, 3), o, out=s.get("d", n, np.float64, 3))
+        best, uids = s.get("best", n, np.float64), s.get("uids", n, np.int64)
+        best.fill(np.inf)
+        uids.fill(-1)
         rg = layout_groups(layout, o, d) if layout is not None else None  # checks the layout describes the rays
         if layout is not None:  # a lidar's fans: horizontal rays at the fans' heights
             z_band = (float(layout.z.min()), float(layout.z.max()))
@@ -261,13 +273,16 @@ class EmbreeCaster:
                 robots.cast_posed(rg, o, d, forms, mats, us, z_band, best, uids)
         for g in self._scenes(z_band, (o, d), moving):
             if g is self._static and layout is not None and self.fans is not None:
-                t_g, u = self.fans.cast(g, layout, o, d)  # full length: the same nearer hits as a limit of best
+                # full length: the same nearer hits as a limit of best
+                t_g, u = self.fans.cast(g, layout, o, d, s)
             else:  # a later scene only looks closer than the hits so far
-                t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0))
-            nearer = t_g < best
-            best, uids = np.where(nearer, t_g, best), np.where(nearer, u, uids)  # = masked assignment, faster
-        hit = np.isfinite(best) & (best <= 1.0)
-        return np.where(hit, best, 1.0), np.where(hit, uids, -1)
+                t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0, out=s.get("limit", n, np.float64)), s)
+            nearer = np.less(t_g, best, out=s.get("nearer", n, np.bool_))
+            np.copyto(best, t_g, where=nearer)
+            np.copyto(uids, u, where=nearer)
+        hit = np.isfinite(best, out=s.get("nearer", n, np.bool_))
+        hit &= np.less_equal(best, 1.0, out=s.get("in_reach", n, np.bool_))
+        return np.where(hit, best, 1.0), np.where(hit, uids, -1)  # new arrays: the caller keeps them
 
 
 __all__ = ["EmbreeCaster"]

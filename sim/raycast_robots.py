@@ -253,16 +253,19 @@ def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFo
     """The rays' nearest hits on bodies sharing the shapes `forms`: `inv` (B, 3, 4) world → body, `xy` (B, 2)
     where each body's shapes lie within `rho` in the plan."""
     ray, rob = _pairs(rg, xy, rho)
-    # Exactly: keep the pairs whose segment passes within ρ of the body's axis (in the plan).
-    dx, dy = d[ray, 0], d[ray, 1]
-    rx, ry = xy[rob, 0] - o[ray, 0], xy[rob, 1] - o[ray, 1]
-    dd = dx * dx + dy * dy
-    u = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    ex, ey = rx - u * dx, ry - u * dy
-    close = np.flatnonzero(ex * ex + ey * ey <= (rho + 1e-6) ** 2)
-    if close.size == 0:
+    if rg.offset.any():
+        # Exactly: keep the pairs whose segment passes within ρ of the body's axis (in the plan). Not for
+        # groups whose ray lines all pass through their centre (a lidar's fans): _pairs' heading intervals
+        # are then already that tight, and the shape tests below are exact either way.
+        dx, dy = d[ray, 0], d[ray, 1]
+        rx, ry = xy[rob, 0] - o[ray, 0], xy[rob, 1] - o[ray, 1]
+        dd = dx * dx + dy * dy
+        u = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+        ex, ey = rx - u * dx, ry - u * dy
+        close = np.flatnonzero(ex * ex + ey * ey <= (rho + 1e-6) ** 2)
+        ray, rob = ray[close], rob[close]
+    if ray.size == 0:
         return
-    ray, rob = ray[close], rob[close]
     m = inv.take(rob, axis=0)  # .take: the same rows as inv[rob], ~4x faster
     bo, bd = _apply(m, o.take(ray, axis=0)) + m[:, :, 3], _apply(m, d.take(ray, axis=0))
     t = np.full(ray.size, np.inf)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from sim import raycast_exact as exact
+from sim.raycast_scratch import Scratch
 from sim.raycast_shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
 
 MAX_PASSES = 8  # continuations per ray (a ray crossing a proxy needs two)
@@ -142,21 +143,39 @@ def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tupl
     return (np.concatenate([r["primID"] for r in parts]), l32, np.concatenate([r["Ng"] for r in parts]))
 
 
-def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray, scratch: Scratch | None = None
+         ) -> tuple[np.ndarray, np.ndarray]:
     """Nearest true hit per ray in one scene closer than `limit`: (t in units of d, inf if none; uid or -1).
+    With `scratch`, the work arrays and the two results are its arrays (valid until its next use).
 
     The first pass settles most rays over whole arrays (no gathers): a miss, or a hit on a flat triangle or on
     the front of a convex shape, is final. Only the few rays that met a curved shape's proxy or the back of a
     convex shape go on through _continue."""
-    o32, d32 = o.astype(np.float32), d.astype(np.float32)
-    prim, t32, ng = _run(g, o32, d32, limit.astype(np.float32))  # first pass: every ray
-    cls = g.tri_class.take(prim)  # primID −1 (a miss) takes the last entry: MISS
-    # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on.
-    back = (ng[:, 0] * d32[:, 0] + ng[:, 1] * d32[:, 1] + ng[:, 2] * d32[:, 2] > 0) & (cls == CONVEX)
-    final = (cls <= CONVEX) & ~back
-    t_hit = np.where(final, t32, np.float32(np.inf)).astype(np.float64)
-    uid = np.where(final, g.tri_uid.take(prim), -1)
-    more = np.flatnonzero(~final & (cls != MISS))
+    s = Scratch() if scratch is None else scratch
+    n = len(o)
+    o32, d32, l32 = s.get("o32", n, np.float32, 3), s.get("d32", n, np.float32, 3), s.get("l32", n, np.float32)
+    for buf, src in ((o32, o), (d32, d), (l32, limit)):
+        np.copyto(buf, src, casting="same_kind")  # = astype(float32), into the kept array
+    prim, t32, ng = _run(g, o32, d32, l32)  # first pass: every ray
+    cls = np.take(g.tri_class, prim, out=s.get("cls", n, np.int8), mode="wrap")  # primID −1 (a miss): MISS
+    # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on. The dot
+    # product is Ng·d as (x·x + y·y) + z·z in float32, term by term into kept arrays.
+    dot, term = s.get("dot", n, np.float32), s.get("term", n, np.float32)
+    np.multiply(ng[:, 0], d32[:, 0], out=dot)
+    dot += np.multiply(ng[:, 1], d32[:, 1], out=term)
+    dot += np.multiply(ng[:, 2], d32[:, 2], out=term)
+    back, other = s.get("back", n, np.bool_), s.get("other", n, np.bool_)
+    np.greater(dot, 0, out=back)
+    back &= np.equal(cls, CONVEX, out=other)
+    not_final = np.greater(cls, CONVEX, out=other)  # curved, or a miss
+    not_final |= back
+    t_hit, uid = s.get("t_hit", n, np.float64), s.get("uid", n, np.int64)
+    np.copyto(t_hit, t32)
+    np.copyto(t_hit, np.inf, where=not_final)
+    np.take(g.tri_uid, prim, out=uid, mode="wrap")
+    np.copyto(uid, -1, where=not_final)
+    not_final &= np.not_equal(cls, MISS, out=back)
+    more = np.flatnonzero(not_final)
     if more.size:
         _continue(g, o, d, d32, limit, more, prim[more], t32[more].astype(np.float64), ng.take(more, axis=0),
                   t_hit, uid)

@@ -10,6 +10,7 @@ shape, or meets the back of a convex shape, continues from just past that hit.
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -28,6 +29,8 @@ THREADS = min(4, os.cpu_count() or 1)  # embreex releases the GIL while it trave
 # Rays per chunk below which one thread does it all: a hand-off costs ~20 µs idle, and on a loaded machine the
 # second thread waits for a core (100 robots × 90 beams, 9,000 rays: no gain at load 4, so it is not split).
 CHUNK_MIN = 16384
+SPLIT_GAIN = 0.1  # a split cast must take at least this much less than one thread would, or the next
+PROBE_EVERY = 64  # big casts stay on one thread
 FLAT, CONVEX, CURVED, MISS = range(4)  # what a first-pass hit needs: nothing, a back-face test, a refinement
 _pool: ThreadPoolExecutor | None = None
 
@@ -124,22 +127,55 @@ def commit(parts: Sequence[Geometry | None]) -> Geometry | None:
     return g
 
 
+class SplitPolicy:
+    """Whether a big batch is split over threads: only while splitting pays. On a busy machine the worker waits
+    for a core (and the main thread then for the GIL it took), and a split cast takes longer than one thread
+    would. Each split cast is timed against k times the main thread's own chunk (what one thread would take);
+    after one that saved less than SPLIT_GAIN, the next PROBE_EVERY big casts stay on one thread, then the
+    split is tried again. The rays' results do not depend on it."""
+
+    def __init__(self) -> None:
+        self.skip = 0
+        self.split = self.single = 0  # big casts so far, split / kept on one thread
+
+    def use_split(self) -> bool:
+        if self.skip > 0:
+            self.skip -= 1
+            self.single += 1
+            return False
+        self.split += 1
+        return True
+
+    def record(self, own_s: float, total_s: float, k: int) -> None:
+        """One split cast: the main thread's chunk took own_s, the whole cast (hand-off to results) total_s."""
+        if total_s > (1.0 - SPLIT_GAIN) * k * own_s:
+            self.skip = PROBE_EVERY
+
+
+_split = SplitPolicy()
+
+
 def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tuple[np.ndarray, ...]:
     """Embree's nearest triangle per ray: (primID, tfar, Ng); tfar is `l32` itself (Embree writes the hit
-    distances over the limits, in place). Big batches are split over THREADS threads (the traversal runs
-    without the GIL; a committed Embree scene is safe to share)."""
+    distances over the limits, in place). Big batches are split over THREADS threads while that pays
+    (SplitPolicy; the traversal runs without the GIL, and a committed Embree scene is safe to share)."""
     n = len(o32)
     k = min(THREADS, n // CHUNK_MIN)
-    if k < 2:
+    if k < 2 or not _split.use_split():
         res = g.scene.run(o32, d32, dists=l32, output=1)
         return res["primID"], l32, res["Ng"]
     global _pool
     if _pool is None:
         _pool = ThreadPoolExecutor(THREADS - 1, thread_name_prefix="embree")
     cuts = np.linspace(0, n, k + 1).astype(int)
+    start = time.perf_counter()
     jobs = [_pool.submit(g.scene.run, o32[a:b], d32[a:b], dists=l32[a:b], output=1)
             for a, b in pairwise(cuts[1:])]
-    parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)] + [j.result() for j in jobs]
+    own = time.perf_counter()
+    parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)]
+    own = time.perf_counter() - own
+    parts += [j.result() for j in jobs]
+    _split.record(own, time.perf_counter() - start, k)
     return (np.concatenate([r["primID"] for r in parts]), l32, np.concatenate([r["Ng"] for r in parts]))
 
 

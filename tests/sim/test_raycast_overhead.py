@@ -177,3 +177,33 @@ def test_cylinder_caps_and_batch_independence() -> None:
     sub = rng.permutation(n)[: n // 5]  # a ray's t is the same in any batch, with radii per ray or shared
     assert np.array_equal(exact.cylinder(o[sub], d[sub], np.full(sub.size, r), np.full(sub.size, h)), t[sub])
     assert np.array_equal(exact.capsule(o[sub], d[sub], r, h), exact.capsule(o, d, r, h)[sub])
+
+
+def test_split_over_threads_equals_one_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same rays cast in chunks over the thread pool (tfar written into views of one array) and on one
+    thread give the same hits."""
+    g = _geometry()
+    rng = np.random.default_rng(2)
+    n = 5000
+    o = np.column_stack([rng.uniform(-3, 3, n), rng.uniform(-3, 3, n), rng.uniform(0.05, 1.2, n)])
+    d = np.column_stack([rng.normal(size=(n, 2)) * 4.0, np.zeros(n)])
+    monkeypatch.setattr(scene, "CHUNK_MIN", 10**9)
+    one = scene.cast(g, o, d, np.ones(n))
+    one = (one[0].copy(), one[1].copy())
+    monkeypatch.setattr(scene, "CHUNK_MIN", 1000)
+    monkeypatch.setattr(scene, "THREADS", 3)
+    monkeypatch.setattr(scene, "_split", scene.SplitPolicy())
+    split = scene.cast(g, o, d, np.ones(n))
+    assert scene._split.split >= 1  # really split (the first pass, at least)
+    assert np.array_equal(one[0], split[0]) and np.array_equal(one[1], split[1])
+
+
+def test_split_policy_stays_on_one_thread_after_a_split_that_did_not_pay() -> None:
+    p = scene.SplitPolicy()
+    assert p.use_split()
+    p.record(own_s=1.0e-3, total_s=1.1e-3, k=2)  # ~half of one thread's 2 ms: keep splitting
+    assert p.use_split()
+    p.record(own_s=1.0e-3, total_s=1.9e-3, k=2)  # the worker waited for a core: as slow as one thread
+    assert [p.use_split() for _ in range(scene.PROBE_EVERY)] == [False] * scene.PROBE_EVERY
+    assert p.use_split()  # then tried again
+    assert (p.split, p.single) == (3, scene.PROBE_EVERY)

@@ -51,6 +51,9 @@ class EmbreeCaster:
         self._upright: list[tuple[list[Shape], np.ndarray, float]] = []
         self._forms: dict[int, list[robots.ShapeForm]] = {}  # id(shared shape list) → closed-form shapes
         self._upright_key: tuple[object, ...] | None = None
+        self._moving_key: tuple[object, ...] | None = None
+        self._moving_links: list[tuple[int, int]] = []  # (uid, link) whose poses _moving reads, in order
+        self._moving_groups: list[tuple[list[Shape], np.ndarray, np.ndarray]] = []  # shapes, rows, uids
         # Static-scene hits of lidar fans whose rays repeat exactly (robots standing still); None: always cast
         self.fans: FanCache | None = FanCache()
         self._scratch = Scratch()  # the cast's full-length work arrays, reused (sim/raycast_scratch.py)
@@ -137,28 +140,35 @@ class EmbreeCaster:
 
     def _moving(self) -> list[Moving]:
         """Bodies moved by physics (dynamic robots, movable models, and every robot while the engine steps),
-        each link at its pose now (joints move links relative to the base), grouped by shared link shapes."""
+        each link at its pose now (joints move links relative to the base), grouped by shared link shapes.
+        Which links and groups is cached while the robots and models stay the same; poses are read every cast."""
         w = self.world
         t = w.table
-        bodies = [(int(t.body[i]), f"robot:{t.names[i]}:{id(w.specs[t.names[i]])}")
-                  for i in (range(len(t)) if self._physics() else np.flatnonzero(~t.b["kinematic"]))]
-        bodies += [(u, f"model:{rec.name}:{id(rec)}") for rec in w.models.records.values()
-                   if not rec.static for u in rec.uids]
-        groups: dict[int, tuple[list[Shape], list[int], list[int]]] = {}
-        pos: list[tuple[float, ...]] = []
-        quat: list[tuple[float, ...]] = []
-        for uid, label in bodies:
-            for link, shapes in self._links(uid, label).items():
-                entry = groups.setdefault(id(shapes), (shapes, [], []))
-                entry[1].append(len(pos))
-                entry[2].append(uid)
-                xyz, q = link_pose(w.client, uid, link)
-                pos.append(xyz)
-                quat.append(q)
-        if not pos:
+        physics = self._physics()
+        key = (tuple(t.names), t.body.tobytes(), t.b["kinematic"].tobytes(), physics, w.models.version)
+        if key != self._moving_key:
+            bodies = [(int(t.body[i]), f"robot:{t.names[i]}:{id(w.specs[t.names[i]])}")
+                      for i in (range(len(t)) if physics else np.flatnonzero(~t.b["kinematic"]))]
+            bodies += [(u, f"model:{rec.name}:{id(rec)}") for rec in w.models.records.values()
+                       if not rec.static for u in rec.uids]
+            groups: dict[int, tuple[list[Shape], list[int], list[int]]] = {}
+            links: list[tuple[int, int]] = []
+            for uid, label in bodies:
+                for link, shapes in self._links(uid, label).items():
+                    entry = groups.setdefault(id(shapes), (shapes, [], []))
+                    entry[1].append(len(links))
+                    entry[2].append(uid)
+                    links.append((uid, link))
+            self._moving_links = links
+            self._moving_groups = [(shapes, np.asarray(at, np.int64), np.asarray(us, np.int64))
+                                   for shapes, at, us in groups.values() if shapes]
+            self._moving_key = key
+        if not self._moving_links:
             return []
-        mats = pose_matrices(np.asarray(pos), np.asarray(quat))  # one numpy pass over every link
-        return [(shapes, mats[at], np.asarray(us, np.int64)) for shapes, at, us in groups.values() if shapes]
+        client = w.client
+        poses = [link_pose(client, uid, link) for uid, link in self._moving_links]
+        mats = pose_matrices(np.asarray([q[0] for q in poses]), np.asarray([q[1] for q in poses]))
+        return [(shapes, mats[at], us) for shapes, at, us in self._moving_groups]
 
     def _form(self, shapes: list[Shape]) -> list[robots.ShapeForm]:
         if id(shapes) not in self._forms:
@@ -221,7 +231,7 @@ class EmbreeCaster:
         self._groups.clear()
         self._link_templates.clear()
         self._forms.clear()
-        self._static_key = self._upright_key = None
+        self._static_key = self._upright_key = self._moving_key = None
         if self.fans is not None:
             self.fans = FanCache()
 

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from sim import World
+from sim import Pose2D, World
 from sim import raycast_exact as exact
 from sim import raycast_scene as scene
 from sim.raycast_embree import EmbreeCaster
@@ -207,3 +207,26 @@ def test_split_policy_stays_on_one_thread_after_a_split_that_did_not_pay() -> No
     assert [p.use_split() for _ in range(scene.PROBE_EVERY)] == [False] * scene.PROBE_EVERY
     assert p.use_split()  # then tried again
     assert (p.split, p.single) == (3, scene.PROBE_EVERY)
+
+
+def test_cached_moving_bodies_follow_spawns_and_motion(world: World) -> None:
+    """With a dynamic robot the engine steps and every body is posed from PyBullet (_moving, its link list
+    cached): after the bodies move and after another robot is spawned, casts equal a fresh caster's. Runs
+    last: it changes the shared world."""
+    world.set_raycaster("embree")
+    world.spawn_robot("dyn", Pose2D(0.0, 0.0, 0.5), fidelity="dynamic")
+    world.set_cmd_vel("dyn", 0.4, 0.3)
+    caster = world.rays.embree
+    caster.fans = None
+    for k in range(3):
+        world.step(3)
+        if k == 1:
+            world.spawn_robot("dyn2", Pose2D(1.0, 1.5, -1.0), fidelity="dynamic")
+        o, e, layout = _lidar_rays(world)[-1]
+        got = caster.cast(o, e, layout)
+        fresh = EmbreeCaster(world)
+        fresh.fans = None
+        ref = fresh.cast(o, e, layout)
+        assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+        # every robot's links, posed from PyBullet
+        assert {u for u, _ in caster._moving_links} == set(world.table.body.tolist())

@@ -12,6 +12,7 @@ bare rays get them from sim/raycast_robots.py group_rays.
 
 from __future__ import annotations
 
+import threading
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,6 +22,7 @@ from sim import raycast_scene as scene
 from sim.raycast_fans import FanCache
 from sim.raycast_layout import RayLayout, layout_groups
 from sim.raycast_scene import Geometry, Part
+from sim.raycast_scratch import Scratch
 from sim.raycast_shapes import Shape, body_shapes, link_matrix, link_pose, pose_matrices
 from sim.types import Mesh
 
@@ -49,8 +51,13 @@ class EmbreeCaster:
         self._upright: list[tuple[list[Shape], np.ndarray, float]] = []
         self._forms: dict[int, list[robots.ShapeForm]] = {}  # id(shared shape list) → closed-form shapes
         self._upright_key: tuple[object, ...] | None = None
+        self._moving_key: tuple[object, ...] | None = None
+        self._moving_links: list[tuple[int, int]] = []  # (uid, link) whose poses _moving reads, in order
+        self._moving_groups: list[tuple[list[Shape], np.ndarray, np.ndarray]] = []  # shapes, rows, uids
         # Static-scene hits of lidar fans whose rays repeat exactly (robots standing still); None: always cast
         self.fans: FanCache | None = FanCache()
+        self._scratch = Scratch()  # the cast's full-length work arrays, reused (sim/raycast_scratch.py)
+        self._lock = threading.Lock()
 
     def _mesh_table(self) -> dict[tuple[int, int], list[Mesh | None]]:
         out: dict[tuple[int, int], list[Mesh | None]] = {}
@@ -133,28 +140,35 @@ class EmbreeCaster:
 
     def _moving(self) -> list[Moving]:
         """Bodies moved by physics (dynamic robots, movable models, and every robot while the engine steps),
-        each link at its pose now (joints move links relative to the base), grouped by shared link shapes."""
+        each link at its pose now (joints move links relative to the base), grouped by shared link shapes.
+        Which links and groups is cached while the robots and models stay the same; poses are read every cast."""
         w = self.world
         t = w.table
-        bodies = [(int(t.body[i]), f"robot:{t.names[i]}:{id(w.specs[t.names[i]])}")
-                  for i in (range(len(t)) if self._physics() else np.flatnonzero(~t.b["kinematic"]))]
-        bodies += [(u, f"model:{rec.name}:{id(rec)}") for rec in w.models.records.values()
-                   if not rec.static for u in rec.uids]
-        groups: dict[int, tuple[list[Shape], list[int], list[int]]] = {}
-        pos: list[tuple[float, ...]] = []
-        quat: list[tuple[float, ...]] = []
-        for uid, label in bodies:
-            for link, shapes in self._links(uid, label).items():
-                entry = groups.setdefault(id(shapes), (shapes, [], []))
-                entry[1].append(len(pos))
-                entry[2].append(uid)
-                xyz, q = link_pose(w.client, uid, link)
-                pos.append(xyz)
-                quat.append(q)
-        if not pos:
+        physics = self._physics()
+        key = (tuple(t.names), t.body.tobytes(), t.b["kinematic"].tobytes(), physics, w.models.version)
+        if key != self._moving_key:
+            bodies = [(int(t.body[i]), f"robot:{t.names[i]}:{id(w.specs[t.names[i]])}")
+                      for i in (range(len(t)) if physics else np.flatnonzero(~t.b["kinematic"]))]
+            bodies += [(u, f"model:{rec.name}:{id(rec)}") for rec in w.models.records.values()
+                       if not rec.static for u in rec.uids]
+            groups: dict[int, tuple[list[Shape], list[int], list[int]]] = {}
+            links: list[tuple[int, int]] = []
+            for uid, label in bodies:
+                for link, shapes in self._links(uid, label).items():
+                    entry = groups.setdefault(id(shapes), (shapes, [], []))
+                    entry[1].append(len(links))
+                    entry[2].append(uid)
+                    links.append((uid, link))
+            self._moving_links = links
+            self._moving_groups = [(shapes, np.asarray(at, np.int64), np.asarray(us, np.int64))
+                                   for shapes, at, us in groups.values() if shapes]
+            self._moving_key = key
+        if not self._moving_links:
             return []
-        mats = pose_matrices(np.asarray(pos), np.asarray(quat))  # one numpy pass over every link
-        return [(shapes, mats[at], np.asarray(us, np.int64)) for shapes, at, us in groups.values() if shapes]
+        client = w.client
+        poses = [link_pose(client, uid, link) for uid, link in self._moving_links]
+        mats = pose_matrices(np.asarray([q[0] for q in poses]), np.asarray([q[1] for q in poses]))
+        return [(shapes, mats[at], us) for shapes, at, us in self._moving_groups]
 
     def _form(self, shapes: list[Shape]) -> list[robots.ShapeForm]:
         if id(shapes) not in self._forms:
@@ -217,7 +231,7 @@ class EmbreeCaster:
         self._groups.clear()
         self._link_templates.clear()
         self._forms.clear()
-        self._static_key = self._upright_key = None
+        self._static_key = self._upright_key = self._moving_key = None
         if self.fans is not None:
             self.fans = FanCache()
 
@@ -235,12 +249,20 @@ class EmbreeCaster:
 
     def cast(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None = None
              ) -> tuple[np.ndarray, np.ndarray]:
+        with self._lock:  # one cast at a time: the work arrays are shared
+            return self._cast(origins, ends, layout)
+
+    def _cast(self, origins: np.ndarray, ends: np.ndarray, layout: RayLayout | None
+              ) -> tuple[np.ndarray, np.ndarray]:
         o = np.asarray(origins, np.float64).reshape(-1, 3)
-        d = np.asarray(ends, np.float64).reshape(-1, 3) - o
-        best = np.full(len(o), np.inf)
-        uids = np.full(len(o), -1, np.int64)
-        if len(o) == 0:
+        n = len(o)
+        if n == 0:
             return np.ones(0), np.full(0, -1, np.int64)
+        s = self._scratch
+        d = np.subtract(np.asarray(ends, np.float64).reshape(-1, 3), o, out=s.get("d", n, np.float64, 3))
+        best, uids = s.get("best", n, np.float64), s.get("uids", n, np.int64)
+        best.fill(np.inf)
+        uids.fill(-1)
         rg = layout_groups(layout, o, d) if layout is not None else None  # checks the layout describes the rays
         if layout is not None:  # a lidar's fans: horizontal rays at the fans' heights
             z_band = (float(layout.z.min()), float(layout.z.max()))
@@ -261,13 +283,16 @@ class EmbreeCaster:
                 robots.cast_posed(rg, o, d, forms, mats, us, z_band, best, uids)
         for g in self._scenes(z_band, (o, d), moving):
             if g is self._static and layout is not None and self.fans is not None:
-                t_g, u = self.fans.cast(g, layout, o, d)  # full length: the same nearer hits as a limit of best
+                # full length: the same nearer hits as a limit of best
+                t_g, u = self.fans.cast(g, layout, o, d, s)
             else:  # a later scene only looks closer than the hits so far
-                t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0))
-            nearer = t_g < best
-            best, uids = np.where(nearer, t_g, best), np.where(nearer, u, uids)  # = masked assignment, faster
-        hit = np.isfinite(best) & (best <= 1.0)
-        return np.where(hit, best, 1.0), np.where(hit, uids, -1)
+                t_g, u = scene.cast(g, o, d, np.minimum(best, 1.0, out=s.get("limit", n, np.float64)), s)
+            nearer = np.less(t_g, best, out=s.get("nearer", n, np.bool_))
+            np.copyto(best, t_g, where=nearer)
+            np.copyto(uids, u, where=nearer)
+        hit = np.isfinite(best, out=s.get("nearer", n, np.bool_))
+        hit &= np.less_equal(best, 1.0, out=s.get("in_reach", n, np.bool_))
+        return np.where(hit, best, 1.0), np.where(hit, uids, -1)  # new arrays: the caller keeps them
 
 
 __all__ = ["EmbreeCaster"]

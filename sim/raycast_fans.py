@@ -20,6 +20,7 @@ import numpy as np
 from sim import raycast_scene as scene
 from sim.raycast_layout import RayLayout
 from sim.raycast_scene import Geometry
+from sim.raycast_scratch import Scratch
 
 MAX_AGE = 32  # layout casts: a fan not seen again for this long is dropped (a lidar comes round every few casts)
 
@@ -45,8 +46,10 @@ class FanCache:
         self._casts = 0
         self.reused = self.cast_fans = 0  # fans handed back from the cache / cast through the BVH
 
-    def cast(self, g: Geometry, layout: RayLayout, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """scene.cast(g, o, d, 1) for rays laid out in `layout`'s fans, repeated fans from the cache."""
+    def cast(self, g: Geometry, layout: RayLayout, o: np.ndarray, d: np.ndarray, scratch: Scratch | None = None
+             ) -> tuple[np.ndarray, np.ndarray]:
+        """scene.cast(g, o, d, 1) for rays laid out in `layout`'s fans, repeated fans from the cache. With
+        `scratch` (the caster's work arrays), a cast of every ray returns its arrays (valid until their next use)."""
         if g is not self._scene:  # a rebuilt static scene: nothing cached holds
             self._fans.clear()
             self._seen.clear()
@@ -77,10 +80,10 @@ class FanCache:
         self.reused += len(starts) - len(missed)
         self.cast_fans += len(missed)
         if len(missed) == len(starts):  # nothing reused (a moving fleet): no gather, no scatter
-            t, uid = t_m, u_m = scene.cast(g, o, d, np.ones(len(o)))
+            t, uid = t_m, u_m = scene.cast(g, o, d, np.ones(len(o)), scratch)
         elif missed:
             idx = np.concatenate([np.arange(a, b) for a, b, _ in missed])
-            t_m, u_m = scene.cast(g, o.take(idx, axis=0), d.take(idx, axis=0), np.ones(idx.size))
+            t_m, u_m = scene.cast(g, o.take(idx, axis=0), d.take(idx, axis=0), np.ones(idx.size), scratch)
             t[idx], uid[idx] = t_m, u_m
         if missed:
             at = 0

@@ -88,7 +88,7 @@ def _shape_t(f: ShapeForm, lo: np.ndarray, ld: np.ndarray) -> np.ndarray:
         return _box(lo, ld, f.half)
     if f.kind == MESH:
         return _convex(lo, ld, f.planes)
-    r, h = np.full(len(lo), f.radius), np.full(len(lo), f.half_length)
+    r, h = f.radius, f.half_length
     if f.kind == SPHERE:
         return exact.sphere(lo, ld, r)
     return exact.cylinder(lo, ld, r, h) if f.kind == CYLINDER else exact.capsule(lo, ld, r, h)
@@ -236,7 +236,8 @@ def cast_posed(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFor
     engine). Shape by shape: each counts by the sphere about its own frame holding it, whose plan is a disc,
     and only where that sphere reaches the rays' heights (a lidar's rays miss a robot's chassis and mast)."""
     for f in forms:
-        shape = frames @ np.linalg.inv(f.inv_local)  # world ← shape frame
+        local, own = _own_frame(f)
+        shape = frames @ local  # world ← shape frame
         z = shape[:, 2, 3]
         keep = np.flatnonzero((z + f.own_reach >= z_band[0]) & (z - f.own_reach <= z_band[1]))
         if keep.size == 0:
@@ -244,8 +245,21 @@ def cast_posed(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFor
         shape = shape[keep]
         rt = shape[:, :3, :3].transpose(0, 2, 1)
         inv = np.concatenate([rt, -np.einsum("bij,bj->bi", rt, shape[:, :3, 3])[:, :, None]], axis=2)
-        cast_bodies(rg, o, d, [replace(f, inv_local=np.eye(4))], inv, shape[:, :2, 3], f.own_reach, uid[keep],
-                    best, best_uid)
+        cast_bodies(rg, o, d, [own], inv, shape[:, :2, 3], f.own_reach, uid[keep], best, best_uid)
+
+
+_OWN: dict[int, tuple[ShapeForm, np.ndarray, ShapeForm]] = {}  # id(form) → (form, kept alive), its local, own
+
+
+def _own_frame(f: ShapeForm) -> tuple[np.ndarray, ShapeForm]:
+    """The shape's frame in its body's (inverse of inv_local) and the form in its own frame (inv_local the
+    identity), made once per form: cast_posed needs them every cast."""
+    hit = _OWN.get(id(f))
+    if hit is None or hit[0] is not f:
+        if len(_OWN) > 4096:  # forms of casters long gone (each keeps its own): start afresh
+            _OWN.clear()
+        hit = _OWN[id(f)] = (f, np.linalg.inv(f.inv_local), replace(f, inv_local=np.eye(4)))
+    return hit[1], hit[2]
 
 
 def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeForm], inv: np.ndarray,
@@ -253,18 +267,21 @@ def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFo
     """The rays' nearest hits on bodies sharing the shapes `forms`: `inv` (B, 3, 4) world → body, `xy` (B, 2)
     where each body's shapes lie within `rho` in the plan."""
     ray, rob = _pairs(rg, xy, rho)
-    # Exactly: keep the pairs whose segment passes within ρ of the body's axis (in the plan).
-    dx, dy = d[ray, 0], d[ray, 1]
-    rx, ry = xy[rob, 0] - o[ray, 0], xy[rob, 1] - o[ray, 1]
-    dd = dx * dx + dy * dy
-    u = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    ex, ey = rx - u * dx, ry - u * dy
-    close = np.flatnonzero(ex * ex + ey * ey <= (rho + 1e-6) ** 2)
-    if close.size == 0:
+    if rg.offset.any():
+        # Exactly: keep the pairs whose segment passes within ρ of the body's axis (in the plan). Not for
+        # groups whose ray lines all pass through their centre (a lidar's fans): _pairs' heading intervals
+        # are then already that tight, and the shape tests below are exact either way.
+        dx, dy = d[ray, 0], d[ray, 1]
+        rx, ry = xy[rob, 0] - o[ray, 0], xy[rob, 1] - o[ray, 1]
+        dd = dx * dx + dy * dy
+        u = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+        ex, ey = rx - u * dx, ry - u * dy
+        close = np.flatnonzero(ex * ex + ey * ey <= (rho + 1e-6) ** 2)
+        ray, rob = ray[close], rob[close]
+    if ray.size == 0:
         return
-    ray, rob = ray[close], rob[close]
-    m = inv.take(rob, axis=0)  # .take: the same rows as inv[rob], ~4x faster
-    bo, bd = _apply(m, o.take(ray, axis=0)) + m[:, :, 3], _apply(m, d.take(ray, axis=0))
+    m = inv.reshape(len(inv), 12).take(rob, axis=0)  # .take: the same rows as inv[rob], ~4x faster
+    bo, bd = _apply(m, o.take(ray, axis=0), True), _apply(m, d.take(ray, axis=0), False)
     t = np.full(ray.size, np.inf)
     for f in forms:
         m = f.inv_local
@@ -278,7 +295,16 @@ def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFo
     best_uid[ray[won]] = uid[rob[won]]
 
 
-def _apply(m: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The rotations m[:, :, :3] (P, 3, ·) applied to the vectors v (P, 3), column by column (a batched
-    einsum is several times slower at these sizes)."""
-    return m[:, :, 0] * v[:, :1] + m[:, :, 1] * v[:, 1:2] + m[:, :, 2] * v[:, 2:]
+def _apply(m: np.ndarray, v: np.ndarray, shift: bool) -> np.ndarray:
+    """(P, 3): the pairs' matrices m (P, 12; entry (i, j) at 4i + j) applied to the vectors v (P, 3) as
+    (m_i0 v_0 + m_i1 v_1) + m_i2 v_2 (+ m_i3 with `shift`), one component at a time over all pairs: a
+    (P, 3, 4) broadcast runs numpy's inner loop three elements at a time, and a batched einsum is slower still."""
+    out = np.empty((len(v), 3))
+    for i in range(3):
+        r = m[:, 4 * i] * v[:, 0]
+        r += m[:, 4 * i + 1] * v[:, 1]
+        r += m[:, 4 * i + 2] * v[:, 2]
+        if shift:
+            r += m[:, 4 * i + 3]
+        out[:, i] = r
+    return out

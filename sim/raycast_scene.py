@@ -10,6 +10,7 @@ shape, or meets the back of a convex shape, continues from just past that hit.
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from sim import raycast_exact as exact
+from sim.raycast_scratch import Scratch
 from sim.raycast_shapes import BOX, CAPSULE, CYLINDER, MESH, SPHERE, Shape
 
 MAX_PASSES = 8  # continuations per ray (a ray crossing a proxy needs two)
@@ -27,6 +29,9 @@ THREADS = min(4, os.cpu_count() or 1)  # embreex releases the GIL while it trave
 # Rays per chunk below which one thread does it all: a hand-off costs ~20 µs idle, and on a loaded machine the
 # second thread waits for a core (100 robots × 90 beams, 9,000 rays: no gain at load 4, so it is not split).
 CHUNK_MIN = 16384
+SPLIT_GAIN = 0.1  # a split cast must take at least this much less than one thread would, or the next
+PROBE_EVERY = 64  # big casts stay on one thread
+FLAT, CONVEX, CURVED, MISS = range(4)  # what a first-pass hit needs: nothing, a back-face test, a refinement
 _pool: ThreadPoolExecutor | None = None
 
 
@@ -52,6 +57,10 @@ class Geometry:
     half: np.ndarray
     inv: np.ndarray  # (S, 4, 4) world → shape frame
     convex: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # (T,) of a convex shape: by commit
+    # Per triangle, with one more entry at the end for primID −1 (a miss indexes it): FLAT / CONVEX / CURVED /
+    # MISS, and the body uid (−1 for a miss). By commit.
+    tri_class: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    tri_uid: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 Part = tuple[list[Shape], np.ndarray, np.ndarray]  # shapes shared by B bodies, base matrices (B, 4, 4), uids (B,)
@@ -109,39 +118,110 @@ def commit(parts: Sequence[Geometry | None]) -> Geometry | None:
         g.scene = rs.EmbreeScene()
         g.handle = mc.TriangleMesh(g.scene, g.verts.astype(np.float32), g.faces.astype(np.int32))
         g.convex = np.isin(g.kind[g.prim_shape], (BOX, MESH))
+        tri_kind = g.kind[g.prim_shape]
+        cls = np.where(g.convex, CONVEX, np.where((tri_kind >= SPHERE) & (tri_kind <= CAPSULE), CURVED, FLAT))
+        g.tri_class = np.append(cls, MISS).astype(np.int8)
+        g.tri_uid = np.append(g.uid[g.prim_shape], -1).astype(np.int64)
         # The first run commits the scene (builds the BVH): done here, once, before threads share the scene.
         g.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
     return g
 
 
+class SplitPolicy:
+    """Whether a big batch is split over threads: only while splitting pays. On a busy machine the worker waits
+    for a core (and the main thread then for the GIL it took), and a split cast takes longer than one thread
+    would. Each split cast is timed against k times the main thread's own chunk (what one thread would take);
+    after one that saved less than SPLIT_GAIN, the next PROBE_EVERY big casts stay on one thread, then the
+    split is tried again. The rays' results do not depend on it."""
+
+    def __init__(self) -> None:
+        self.skip = 0
+        self.split = self.single = 0  # big casts so far, split / kept on one thread
+
+    def use_split(self) -> bool:
+        if self.skip > 0:
+            self.skip -= 1
+            self.single += 1
+            return False
+        self.split += 1
+        return True
+
+    def record(self, own_s: float, total_s: float, k: int) -> None:
+        """One split cast: the main thread's chunk took own_s, the whole cast (hand-off to results) total_s."""
+        if total_s > (1.0 - SPLIT_GAIN) * k * own_s:
+            self.skip = PROBE_EVERY
+
+
+_split = SplitPolicy()
+
+
 def _run(g: Geometry, o32: np.ndarray, d32: np.ndarray, l32: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Embree's nearest triangle per ray: (primID, tfar, Ng). Big batches are split over THREADS threads
-    (the traversal runs without the GIL; a committed Embree scene is safe to share)."""
+    """Embree's nearest triangle per ray: (primID, tfar, Ng); tfar is `l32` itself (Embree writes the hit
+    distances over the limits, in place). Big batches are split over THREADS threads while that pays
+    (SplitPolicy; the traversal runs without the GIL, and a committed Embree scene is safe to share)."""
     n = len(o32)
     k = min(THREADS, n // CHUNK_MIN)
-    if k < 2:
+    if k < 2 or not _split.use_split():
         res = g.scene.run(o32, d32, dists=l32, output=1)
-        return res["primID"], res["tfar"], res["Ng"]
+        return res["primID"], l32, res["Ng"]
     global _pool
     if _pool is None:
         _pool = ThreadPoolExecutor(THREADS - 1, thread_name_prefix="embree")
     cuts = np.linspace(0, n, k + 1).astype(int)
+    start = time.perf_counter()
     jobs = [_pool.submit(g.scene.run, o32[a:b], d32[a:b], dists=l32[a:b], output=1)
             for a, b in pairwise(cuts[1:])]
-    parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)] + [j.result() for j in jobs]
-    return tuple(np.concatenate([r[key] for r in parts]) for key in ("primID", "tfar", "Ng"))
+    own = time.perf_counter()
+    parts = [g.scene.run(o32[:cuts[1]], d32[:cuts[1]], dists=l32[:cuts[1]], output=1)]
+    own = time.perf_counter() - own
+    parts += [j.result() for j in jobs]
+    _split.record(own, time.perf_counter() - start, k)
+    return (np.concatenate([r["primID"] for r in parts]), l32, np.concatenate([r["Ng"] for r in parts]))
 
 
-def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest true hit per ray in one scene closer than `limit`: (t in units of d, inf if none; uid or -1)."""
+def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray, scratch: Scratch | None = None
+         ) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest true hit per ray in one scene closer than `limit`: (t in units of d, inf if none; uid or -1).
+    With `scratch`, the work arrays and the two results are its arrays (valid until its next use).
+
+    The first pass settles most rays over whole arrays (no gathers): a miss, or a hit on a flat triangle or on
+    the front of a convex shape, is final. Only the few rays that met a curved shape's proxy or the back of a
+    convex shape go on through _continue."""
+    s = Scratch() if scratch is None else scratch
     n = len(o)
-    t_hit = np.full(n, np.inf)
-    uid = np.full(n, -1, np.int64)
-    o32, d32 = o.astype(np.float32), d.astype(np.float32)
-    prim, t32, ng = _run(g, o32, d32, limit.astype(np.float32))  # first pass: every ray
-    active = np.flatnonzero(prim >= 0)
-    # Rows of 2-D arrays are gathered with .take(axis=0): the same copy as a[idx], ~4x faster at these sizes.
-    prim, t_emb, ng = prim[active], t32[active].astype(np.float64), ng.take(active, axis=0)
+    o32, d32, l32 = s.get("o32", n, np.float32, 3), s.get("d32", n, np.float32, 3), s.get("l32", n, np.float32)
+    for buf, src in ((o32, o), (d32, d), (l32, limit)):
+        np.copyto(buf, src, casting="same_kind")  # = astype(float32), into the kept array
+    prim, t32, ng = _run(g, o32, d32, l32)  # first pass: every ray
+    cls = np.take(g.tri_class, prim, out=s.get("cls", n, np.int8), mode="wrap")  # primID −1 (a miss): MISS
+    # The back of a convex shape met first: the ray starts inside it and, as in Bullet, goes on. The dot
+    # product is Ng·d as (x·x + y·y) + z·z in float32, term by term into kept arrays.
+    dot, term = s.get("dot", n, np.float32), s.get("term", n, np.float32)
+    np.multiply(ng[:, 0], d32[:, 0], out=dot)
+    dot += np.multiply(ng[:, 1], d32[:, 1], out=term)
+    dot += np.multiply(ng[:, 2], d32[:, 2], out=term)
+    back, other = s.get("back", n, np.bool_), s.get("other", n, np.bool_)
+    np.greater(dot, 0, out=back)
+    back &= np.equal(cls, CONVEX, out=other)
+    not_final = np.greater(cls, CONVEX, out=other)  # curved, or a miss
+    not_final |= back
+    t_hit, uid = s.get("t_hit", n, np.float64), s.get("uid", n, np.int64)
+    np.copyto(t_hit, t32)
+    np.copyto(t_hit, np.inf, where=not_final)
+    np.take(g.tri_uid, prim, out=uid, mode="wrap")
+    np.copyto(uid, -1, where=not_final)
+    not_final &= np.not_equal(cls, MISS, out=back)
+    more = np.flatnonzero(not_final)
+    if more.size:
+        _continue(g, o, d, d32, limit, more, prim[more], t32[more].astype(np.float64), ng.take(more, axis=0),
+                  t_hit, uid)
+    return t_hit, uid
+
+
+def _continue(g: Geometry, o: np.ndarray, d: np.ndarray, d32: np.ndarray, limit: np.ndarray, active: np.ndarray,
+              prim: np.ndarray, t_emb: np.ndarray, ng: np.ndarray, t_hit: np.ndarray, uid: np.ndarray) -> None:
+    """The rays `active` whose first-pass hit (prim, t_emb, ng) is not final: curved proxies are refined
+    analytically, and rays that passed a proxy or met a back face are cast again from just past that hit."""
     off = np.zeros(active.size)
     for k in range(MAX_PASSES):
         shape = g.prim_shape[prim]
@@ -177,7 +257,6 @@ def cast(g: Geometry, o: np.ndarray, d: np.ndarray, limit: np.ndarray) -> tuple[
         prim, t_emb, ng = prim[hit], t32[hit].astype(np.float64), np.compress(hit, ng, axis=0)
         if active.size == 0:
             break
-    return t_hit, uid
 
 
 def _refine(g: Geometry, shape: np.ndarray, kind: np.ndarray, o: np.ndarray, d: np.ndarray) -> np.ndarray:

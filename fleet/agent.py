@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from fleet.agent_link import RobotLink, direct_callback
+from fleet.agent_link import CMD_QOS, RobotLink, direct_callback
 from fleet.zenoh_api import Keys, check_name, decode_error, decode_grid, dumps
 from fleet.zenoh_config import ZenohConfig
 from sim.errors import ErrorCode, FleetError
@@ -109,8 +109,7 @@ class Agent:
         call; returns the world's sim time then. Velocity commands have no reply, and Zenoh may deliver the
         session's end before its last ones, so close() syncs first: a stop sent just before leaving is not dropped
         as late (fleet/command/sync goes on cmd_vel's priority, so it is ordered behind them on the link)."""
-        msg = self.query(self.keys.command("sync"), {"agent": self.id}, timeout, express=True,
-                         priority=zenoh.Priority.INTERACTIVE_HIGH, congestion_control=zenoh.CongestionControl.BLOCK)
+        msg = self.query(self.keys.command("sync"), {"agent": self.id}, timeout, **CMD_QOS)
         self.unsynced = False
         return float(msg["result"]["time"])
 

@@ -18,6 +18,9 @@ from sim.errors import ErrorCode, FleetError
 if TYPE_CHECKING:
     from fleet.agent import Agent
 
+# Velocity commands' QoS; agent.sync() sends its barrier with the same, so it is ordered behind them on the link.
+CMD_QOS: dict[str, Any] = {"priority": zenoh.Priority.INTERACTIVE_HIGH, "express": True,
+                           "congestion_control": zenoh.CongestionControl.BLOCK}
 DECODERS: dict[str, Callable[[bytes], Any]] = {"odom": decode_odom, "scan": decode_scan, "pose": decode_pose,
                                                "state": json.loads, "imu": json.loads}
 
@@ -36,9 +39,8 @@ class RobotLink:
         self._cond = threading.Condition()
         self._seq = 0
         keys = agent.keys
-        self._cmd = agent.session.declare_publisher(
-            keys.robot(name, "cmd_vel"), encoding=zenoh.Encoding.APPLICATION_JSON,
-            congestion_control=zenoh.CongestionControl.BLOCK, priority=zenoh.Priority.INTERACTIVE_HIGH, express=True)
+        self._cmd = agent.session.declare_publisher(keys.robot(name, "cmd_vel"),
+                                                    encoding=zenoh.Encoding.APPLICATION_JSON, **CMD_QOS)
         self._subs = [agent.session.declare_subscriber(keys.robot(name, s), direct_callback(self._receiver(s)))
                       for s in streams]
 

@@ -16,6 +16,7 @@ that starts inside a shape does not see it (as in Bullet and the Embree path).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
@@ -44,6 +45,12 @@ class ShapeForm:
     z_range: tuple[float, float]  # in the base frame
     reach: float  # farthest point of the shape from the base's origin (any orientation)
     own_reach: float  # farthest point of the shape from its own frame's origin
+
+    @cached_property
+    def own_frame(self) -> tuple[np.ndarray, ShapeForm]:
+        """The shape's frame in its body's (the inverse of inv_local) and this form in its own frame (inv_local
+        the identity): cast_posed needs both every cast, so they are made once per form."""
+        return np.linalg.inv(self.inv_local), replace(self, inv_local=np.eye(4))
 
 
 def shape_form(s: Shape) -> ShapeForm:
@@ -236,7 +243,7 @@ def cast_posed(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFor
     engine). Shape by shape: each counts by the sphere about its own frame holding it, whose plan is a disc,
     and only where that sphere reaches the rays' heights (a lidar's rays miss a robot's chassis and mast)."""
     for f in forms:
-        local, own = _own_frame(f)
+        local, own = f.own_frame
         shape = frames @ local  # world ← shape frame
         z = shape[:, 2, 3]
         keep = np.flatnonzero((z + f.own_reach >= z_band[0]) & (z - f.own_reach <= z_band[1]))
@@ -247,19 +254,6 @@ def cast_posed(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeFor
         inv = np.concatenate([rt, -np.einsum("bij,bj->bi", rt, shape[:, :3, 3])[:, :, None]], axis=2)
         cast_bodies(rg, o, d, [own], inv, shape[:, :2, 3], f.own_reach, uid[keep], best, best_uid)
 
-
-_OWN: dict[int, tuple[ShapeForm, np.ndarray, ShapeForm]] = {}  # id(form) → (form, kept alive), its local, own
-
-
-def _own_frame(f: ShapeForm) -> tuple[np.ndarray, ShapeForm]:
-    """The shape's frame in its body's (inverse of inv_local) and the form in its own frame (inv_local the
-    identity), made once per form: cast_posed needs them every cast."""
-    hit = _OWN.get(id(f))
-    if hit is None or hit[0] is not f:
-        if len(_OWN) > 4096:  # forms of casters long gone (each keeps its own): start afresh
-            _OWN.clear()
-        hit = _OWN[id(f)] = (f, np.linalg.inv(f.inv_local), replace(f, inv_local=np.eye(4)))
-    return hit[1], hit[2]
 
 
 def cast_bodies(rg: RayGroups, o: np.ndarray, d: np.ndarray, forms: list[ShapeForm], inv: np.ndarray,

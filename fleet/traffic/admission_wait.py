@@ -1,0 +1,99 @@
+"""Admission driven by the wait bound itself (the traffic layer's `admission: bound`; docs/benchmarks-fleet.md,
+helper 17x).
+
+`park`'s AIMD limit (admission.py) reacts to the *share* of active robots in a wait: one robot whose wait nears the
+bound moves that share by 1/active, so the long wait that breaks the bound is invisible to it, and cutting the
+limit only adds held robots, which obstruct the lanes too (17k). `bound` keeps `park`'s limit and parking and
+adds the wait itself as a signal, locally: a robot *starved* (no closer to its goal for `starve_s`, by default the
+layer's `stall_s`: its wait is open) protects the next `reach` cells of its way to its goal (the static lane
+field's descent from its planned tail), and a held goal whose own first `reach` cells cross them is not started
+while it starves: it keeps its place in the FIFO and the next held goal that does not cross is started instead.
+So no robot is added to the lanes a waiting robot still has to pass, while goals elsewhere keep starting (a global
+freeze or cut idles the whole fleet for one merge; measured worse, docs).
+
+`reach` = the cells a robot covers at the layer's peak speed in the time left between the wait opening and the
+bound (`bound_s` − `stall_s`): a robot admitted farther away than that cannot reach the waiting robot's way before
+the wait must be over. Nothing depends on the map: the bound, the layer's stall_s and speed, and the lane field.
+A fleet below the start limit never holds a goal, so nothing changes for it (the 100-robot warehouse).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from fleet.traffic.admission import Admission, Held
+
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
+
+WAIT_BOUND_S = 30.0  # every wait resolved within this (issue 17)
+
+
+def way(neighbours: list[list[int]], to_goal: np.ndarray, start: int, reach: int) -> list[int]:
+    """The first `reach` cells after `start` along the steepest descent of `to_goal` (fewer at the goal)."""
+    out, here = [], start
+    for _ in range(reach):
+        nxt = min(neighbours[here], key=lambda v: to_goal[v], default=here)
+        if not to_goal[nxt] < to_goal[here]:
+            break
+        out.append(nxt)
+        here = nxt
+    return out
+
+
+@dataclass
+class BoundAdmission(Admission):
+    """`park`'s limit, and held goals that would cross a starved robot's way kept held (module doc)."""
+
+    hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
+    crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
+
+    def observe(self, tm: TrafficManager, now: float) -> None:
+        """Mark the starved robots' ways hot and let held goals be checked against them (their way from the
+        robot's planned tail to the held goal)."""
+        starved = np.flatnonzero(tm.pending & (now - tm.best_at >= tm.stall_s)).tolist()
+        reach = reach_cells(tm.stall_s, tm.peak)
+        nb, fields = tm.grid.neighbours, tm.grid.fields.to
+        mark_hot(self, nb, fields, ((int(tm.sched.tail[i]), int(tm.goal[i])) for i in starved), reach)
+
+        def crosses(h: Held) -> list[int]:
+            i = tm._idx[h.robot]
+            return way(nb, fields(tm._goal_node(h.robot, h.x, h.y)), int(tm.sched.tail[i]), reach)
+
+        self.crosses = crosses
+
+    def admit(self, active: int, now: float) -> list[Held]:
+        """As Admission.admit, skipping (keeping, in order) the held goals whose way crosses a hot cell."""
+        if not self.hot or self.crosses is None:
+            return super().admit(active, now)
+        out: list[Held] = []
+        kept: list[Held] = []
+        while self.queue and active + len(out) < self.limit:
+            h = self.queue.popleft()
+            if not self.hot.isdisjoint(self.crosses(h)):
+                kept.append(h)
+                self.stats["deferred"] = self.stats.get("deferred", 0) + 1
+                continue
+            self.stats["longest_hold_s"] = max(self.stats["longest_hold_s"], now - h.since)
+            out.append(h)
+        self.queue.extendleft(reversed(kept))
+        self.stats["admitted"] += len(out)
+        return out
+
+
+def mark_hot(adm: BoundAdmission, neighbours: list[list[int]], fields: Callable[[int], np.ndarray],
+             starved: Iterable[tuple[int, int]], reach: int) -> None:
+    """The hot cells: the next `reach` cells of every starved robot's way ((planned tail, goal) pairs)."""
+    adm.hot.clear()
+    for tail, goal in starved:
+        adm.hot.update(way(neighbours, fields(goal), tail, reach))
+
+
+def reach_cells(stall_s: float, peak: float, bound_s: float = WAIT_BOUND_S) -> int:
+    """Cells covered at `peak` cells/s between a wait opening and the bound."""
+    return max(1, math.ceil(peak * max(bound_s - stall_s, 0.0)))

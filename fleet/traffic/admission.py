@@ -129,10 +129,10 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     # limit never starts below that: a small map's fleet that flows is never held (the corridor world: 28 cells).
     start = max(1.0 / STALLED_SHARE[mode], START_DENSITY * cells)
     park = mode in PARKED
-    kind = Admission
-    if mode == "bound":
+    adm = Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
+                    grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)
+    if mode == "bound":  # park's limit, and held goals kept off the ways of robots in a wait
         from fleet.traffic.admission_wait import BoundAdmission
 
-        kind = BoundAdmission
-    return kind(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
-                     grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)
+        return BoundAdmission(**vars(adm), starve_s=0.5 * stall_s)
+    return adm

@@ -50,14 +50,15 @@ def way(neighbours: list[list[int]], to_goal: np.ndarray, start: int, reach: int
 class BoundAdmission(Admission):
     """`park`'s limit, and held goals that would cross a starved robot's way kept held (module doc)."""
 
+    starve_s: float = 5.0  # a robot this long without coming closer protects its way (the layer: stall_s / 2)
     hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
     crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
 
     def observe(self, tm: TrafficManager, now: float) -> None:
         """Mark the starved robots' ways hot and let held goals be checked against them (their way from the
         robot's planned tail to the held goal)."""
-        starved = np.flatnonzero(tm.pending & (now - tm.best_at >= tm.stall_s)).tolist()
-        reach = reach_cells(tm.stall_s, tm.peak)
+        starved = np.flatnonzero(tm.pending & (now - tm.best_at >= self.starve_s)).tolist()
+        reach = reach_cells(self.starve_s, tm.peak)
         nb, fields = tm.grid.neighbours, tm.grid.fields.to
         mark_hot(self, nb, fields, ((int(tm.sched.tail[i]), int(tm.goal[i])) for i in starved), reach)
 
@@ -94,6 +95,6 @@ def mark_hot(adm: BoundAdmission, neighbours: list[list[int]], fields: Callable[
         adm.hot.update(way(neighbours, fields(goal), tail, reach))
 
 
-def reach_cells(stall_s: float, peak: float, bound_s: float = WAIT_BOUND_S) -> int:
-    """Cells covered at `peak` cells/s between a wait opening and the bound."""
-    return max(1, math.ceil(peak * max(bound_s - stall_s, 0.0)))
+def reach_cells(starve_s: float, peak: float, bound_s: float = WAIT_BOUND_S) -> int:
+    """Cells covered at `peak` cells/s between a robot starving and the bound."""
+    return max(1, math.ceil(peak * max(bound_s - starve_s, 0.0)))

@@ -58,7 +58,7 @@ def test_layer_keeps_the_goal_through_a_starved_robots_corridor_held(tmp: Path) 
             svc.spawn_robot(name, Pose2D(x, y, 0.0))
         tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0, admission="bound")
         adm = tm.admission
-        assert isinstance(adm, BoundAdmission)
+        assert isinstance(adm, BoundAdmission) and adm.starve_s == 5.0  # half of stall_s
         adm.limit, adm._next = 1, math.inf  # a fixed limit (the AIMD step is park's, test_traffic_admission.py)
 
         def setup() -> None:

@@ -4,16 +4,17 @@ helper 17x).
 `park`'s AIMD limit (admission.py) reacts to the *share* of active robots in a wait: one robot whose wait nears the
 bound moves that share by 1/active, so the long wait that breaks the bound is invisible to it, and cutting the
 limit only adds held robots, which obstruct the lanes too (17k). `bound` keeps `park`'s limit and parking and
-adds the wait itself as a signal, locally: a robot *starved* (no closer to its goal for `starve_s`, by default the
-layer's `stall_s`: its wait is open) protects the next `reach` cells of its way to its goal (the static lane
-field's descent from its planned tail), and a held goal whose own first `reach` cells cross them is not started
-while it starves: it keeps its place in the FIFO and the next held goal that does not cross is started instead.
+adds the wait itself as a signal, locally: a robot *starved* (no closer to its goal for `starve_s`, half the
+layer's `stall_s`: half-way to a wait opening, so the protection starts before the wait does) protects the next
+`reach` cells of its way to its goal (the static lane field's descent from its planned tail), and a held goal
+whose own first `reach` cells cross them is not started while it starves: it keeps its place in the FIFO and the
+next held goal that does not cross is started instead.
 So no robot is added to the lanes a waiting robot still has to pass, while goals elsewhere keep starting (a global
 freeze or cut idles the whole fleet for one merge; measured worse, docs).
 
-`reach` = the cells a robot covers at the layer's peak speed in the time left between the wait opening and the
-bound (`bound_s` − `stall_s`): a robot admitted farther away than that cannot reach the waiting robot's way before
-the wait must be over. Nothing depends on the map: the bound, the layer's stall_s and speed, and the lane field.
+`reach` = the cells a robot covers at the layer's peak speed in the time left between starving and the bound
+(`bound_s` − `starve_s`): a robot admitted farther away than that cannot reach the waiting robot's way before the
+wait must be over. Nothing depends on the map: the bound, the layer's stall_s and speed, and the lane field.
 A fleet below the start limit never holds a goal, so nothing changes for it (the 100-robot warehouse).
 """
 
@@ -38,7 +39,7 @@ def way(neighbours: list[list[int]], to_goal: np.ndarray, start: int, reach: int
     """The first `reach` cells after `start` along the steepest descent of `to_goal` (fewer at the goal)."""
     out, here = [], start
     for _ in range(reach):
-        nxt = min(neighbours[here], key=lambda v: to_goal[v], default=here)
+        nxt = min(neighbours[here], key=to_goal.__getitem__, default=here)
         if not to_goal[nxt] < to_goal[here]:
             break
         out.append(nxt)
@@ -53,6 +54,7 @@ class BoundAdmission(Admission):
     starve_s: float = 5.0  # a robot this long without coming closer protects its way (the layer: stall_s / 2)
     hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
     crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
+    _ways: dict[tuple[int, float, float], list[int]] = field(default_factory=dict)  # (tail, goal x, y) -> way
 
     def observe(self, tm: TrafficManager, now: float) -> None:
         """Mark the starved robots' ways hot and let held goals be checked against them (their way from the
@@ -62,9 +64,14 @@ class BoundAdmission(Admission):
         nb, fields = tm.grid.neighbours, tm.grid.fields.to
         mark_hot(self, nb, fields, ((int(tm.sched.tail[i]), int(tm.goal[i])) for i in starved), reach)
 
+        if len(self._ways) > 8192:  # held robots' tails and goals change slowly: a small cache of their ways
+            self._ways.clear()
+
         def crosses(h: Held) -> list[int]:
-            i = tm._idx[h.robot]
-            return way(nb, fields(tm._goal_node(h.robot, h.x, h.y)), int(tm.sched.tail[i]), reach)
+            key = (int(tm.sched.tail[tm._idx[h.robot]]), h.x, h.y)
+            if key not in self._ways:
+                self._ways[key] = way(nb, fields(tm._goal_node(h.robot, h.x, h.y)), key[0], reach)
+            return self._ways[key]
 
         self.crosses = crosses
 

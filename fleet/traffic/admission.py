@@ -134,5 +134,5 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     if mode == "bound":  # park's limit, and held goals kept off the ways of robots in a wait
         from fleet.traffic.admission_wait import BoundAdmission
 
-        return BoundAdmission(**vars(adm), starve_s=0.5 * stall_s)
+        return BoundAdmission(**vars(adm), starve_s=0.5 * stall_s, floor=0.5 * start)
     return adm

@@ -14,7 +14,9 @@ freeze or cut idles the whole fleet for one merge; measured worse, docs).
 
 `reach` = the cells a robot covers at the layer's peak speed in the time left between starving and the bound
 (`bound_s` − `starve_s`): a robot admitted farther away than that cannot reach the waiting robot's way before the
-wait must be over. Nothing depends on the map: the bound, the layer's stall_s and speed, and the lane field.
+wait must be over. The limit is `park`'s AIMD limit, but never below half the start limit (1/16 of the free
+cells): over 5 minutes the share signal alone drove it to 23 robots on one seed, idling the fleet while the waits
+went on. Nothing depends on the map: the bound, the layer's stall_s and speed, the free cells and the lane field.
 A fleet below the start limit never holds a goal, so nothing changes for it (the 100-robot warehouse).
 """
 
@@ -56,6 +58,7 @@ class BoundAdmission(Admission):
     starve_s: float = 5.0  # a robot this long without coming closer protects its way (the layer: stall_s / 2)
     hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
     crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
+    floor: float = 1.0  # the limit never below this (the layer: half the start limit, 1/16 of the free cells)
     free_held: bool = False  # withdraw held robots' unstarted moves ahead of active robots at rest (17k's hook)
     _ways: dict[tuple[int, float, float], list[int]] = field(default_factory=dict)  # (tail, goal x, y) -> way
 
@@ -83,6 +86,12 @@ class BoundAdmission(Admission):
             waiting = tm.pending & (tm.a == tm.b) & (tm.sched.head_step < BIG)
             here = np.where(tm.claim >= 0, tm.claim, tm.b)
             tm.stats["withdrawn"] += free_held(tm.sched, here, held, np.flatnonzero(waiting).tolist())
+
+    def update(self, now: float, active: int, stalled: int) -> None:
+        """park's AIMD step, never below `floor`: with the held goals kept off the waits' ways, the share of robots
+        in a wait over 5 minutes still drives park's limit down to 23 robots (seed 9) while the waits go on."""
+        super().update(now, active, stalled)
+        self.limit = max(self.limit, self.floor)
 
     def admit(self, active: int, now: float) -> list[Held]:
         """As Admission.admit, skipping (keeping, in order) the held goals whose way crosses a hot cell."""

@@ -95,3 +95,16 @@ def test_held_robots_moves_ahead_of_a_waiting_robot_are_withdrawn_active_ones_ke
             assert queues == [[], [5]] and fifos[5] == [1] and tails == [6, 5]
         else:  # an active robot's moves are never withdrawn
             assert queues == [[5, 9], [5]] and fifos[5] == [0, 1] and tails == [9, 5]
+
+
+def test_bound_limit_never_below_half_the_start_limit() -> None:
+    from fleet.traffic.admission import layer_admission
+
+    adm = layer_admission("bound", 10.0, 965)
+    assert isinstance(adm, BoundAdmission) and adm.floor == 965 / 16 and adm.starve_s == 5.0
+    adm.queue.append(Held("r", 0.0, 0.0, 0.0))
+    plain = Admission(stalled_share=0.05, limit=70)
+    adm.limit = 70
+    plain.update(0.0, active=70, stalled=30)
+    adm.update(0.0, active=70, stalled=30)
+    assert plain.limit == 49 and adm.limit == 965 / 16  # cut to 0.7 · 70 = 49, held at 60.3

@@ -27,10 +27,16 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-ADMISSION = ("off", "aimd", "park")  # park: aimd, and held robots wait on parking cells (parking.py)
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
+
+ADMISSION = ("off", "aimd", "park", "bound")  # park: aimd + parking cells (parking.py); bound: admission_wait.py
+PARKED = ("park", "bound")  # held robots wait on parking cells
 START_DENSITY = 0.125  # robots with goals per free cell before any congestion is seen
-STALLED_SHARE = {"aimd": 0.2, "park": 0.05}  # share of the robots with goals in a wait above which the limit is cut
+# share of the robots with goals in a wait above which the limit is cut
+STALLED_SHARE = {"aimd": 0.2, "park": 0.05, "bound": 0.05}
 
 
 @dataclass
@@ -82,6 +88,9 @@ class Admission:
         """The robot's held goal is withdrawn (task cancelled, robot left the layer)."""
         self.queue = deque(h for h in self.queue if h.robot != robot)
 
+    def observe(self, tm: TrafficManager, now: float) -> None:
+        """The layer's state this tick, for modes whose admission looks at robots (admission_wait.py)."""
+
     def update(self, now: float, active: int, stalled: int) -> None:
         """AIMD step, once per period: `active` robots have goals, `stalled` of them are in a wait."""
         if now < self._next:
@@ -119,6 +128,11 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     # The stalled share cannot be measured on fewer than 1 / share robots (one wait already exceeds it), so the
     # limit never starts below that: a small map's fleet that flows is never held (the corridor world: 28 cells).
     start = max(1.0 / STALLED_SHARE[mode], START_DENSITY * cells)
-    park = mode == "park"
-    return Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
-                     grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)
+    park = mode in PARKED
+    adm = Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
+                    grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)
+    if mode == "bound":  # park's limit, and held goals kept off the ways of robots in a wait
+        from fleet.traffic.admission_wait import BoundAdmission
+
+        return BoundAdmission(**vars(adm), starve_s=0.5 * stall_s, floor=0.5 * start)
+    return adm

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from fleet.traffic.admission import layer_admission
+from fleet.traffic.admission import PARKED, layer_admission
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import drive
@@ -67,7 +67,7 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 admission: Literal["off", "aimd", "park"] = "park", urgent_cells: int | None = None,
+                 admission: Literal["off", "aimd", "park", "bound"] = "park", urgent_cells: int | None = None,
                  one_way: bool = True, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
@@ -95,7 +95,7 @@ class TrafficManager:
         self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
         self.flush_s, self._flush_at = flush_s, 0.0
         self.admission = layer_admission(admission, stall_s, len(self.grid))  # new goals held while congested
-        self.parking = Parking(self.grid) if admission == "park" else None  # held robots wait off the main flow
+        self.parking = Parking(self.grid) if admission in PARKED else None  # held robots wait off the main flow
         self.names: list[str] = []
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
@@ -307,6 +307,7 @@ class TrafficManager:
         assert adm is not None
         active = int(np.count_nonzero(self.pending))
         adm.update(now, active, int(np.count_nonzero(self.pending & (now - self.best_at >= self.stall_s))))
+        adm.observe(self, now)
         for h in adm.admit(active, now):
             i = self._idx[h.robot]
             if self.parking is not None:

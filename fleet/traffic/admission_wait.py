@@ -1,0 +1,132 @@
+"""Admission driven by the wait bound itself (the traffic layer's `admission: bound`; docs/benchmarks-fleet.md,
+helper 17x).
+
+`park`'s AIMD limit (admission.py) reacts to the *share* of active robots in a wait: one robot whose wait nears the
+bound moves that share by 1/active, so the long wait that breaks the bound is invisible to it, and cutting the
+limit only adds held robots, which obstruct the lanes too (17k). `bound` keeps `park`'s limit and parking and
+adds the wait itself as a signal, locally: a robot *starved* (no closer to its goal for `starve_s`, half the
+layer's `stall_s`: half-way to a wait opening, so the protection starts before the wait does) protects the next
+`reach` cells of its way to its goal (the static lane field's descent from its planned tail), and a held goal
+whose own first `reach` cells cross them is not started while it starves: it keeps its place in the FIFO and the
+next held goal that does not cross is started instead.
+So no robot is added to the lanes a waiting robot still has to pass, while goals elsewhere keep starting (a global
+freeze or cut idles the whole fleet for one merge; measured worse, docs).
+
+`reach` = the cells a robot covers at the layer's peak speed in the time left between starving and the bound
+(`bound_s` − `starve_s`): a robot admitted farther away than that cannot reach the waiting robot's way before the
+wait must be over. The limit is `park`'s AIMD limit, but never below half the start limit (1/16 of the free
+cells): over 5 minutes the share signal alone drove it to 23 robots on one seed, idling the fleet while the waits
+went on. Nothing depends on the map: the bound, the layer's stall_s and speed, the free cells and the lane field.
+A fleet below the start limit never holds a goal, so nothing changes for it (the 100-robot warehouse).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from fleet.traffic.admission import Admission, Held
+from fleet.traffic.schedule import BIG, Schedule
+from fleet.traffic.withdraw import free_ahead
+
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
+
+WAIT_BOUND_S = 30.0  # every wait resolved within this (issue 17)
+
+
+def way(neighbours: list[list[int]], to_goal: np.ndarray, start: int, reach: int) -> list[int]:
+    """The first `reach` cells after `start` along the steepest descent of `to_goal` (fewer at the goal)."""
+    out, here = [], start
+    for _ in range(reach):
+        nxt = min(neighbours[here], key=to_goal.__getitem__, default=here)
+        if not to_goal[nxt] < to_goal[here]:
+            break
+        out.append(nxt)
+        here = nxt
+    return out
+
+
+@dataclass
+class BoundAdmission(Admission):
+    """`park`'s limit, and held goals that would cross a starved robot's way kept held (module doc)."""
+
+    starve_s: float = 5.0  # a robot this long without coming closer protects its way (the layer: stall_s / 2)
+    hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
+    crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
+    floor: float = 1.0  # the limit never below this (the layer: half the start limit, 1/16 of the free cells)
+    free_held: bool = False  # withdraw held robots' unstarted moves ahead of active robots at rest (17k's hook)
+    _ways: dict[tuple[int, float, float], list[int]] = field(default_factory=dict)  # (tail, goal x, y) -> way
+
+    def observe(self, tm: TrafficManager, now: float) -> None:
+        """Mark the starved robots' ways hot and let held goals be checked against them (their way from the
+        robot's planned tail to the held goal)."""
+        starved = np.flatnonzero(tm.pending & (now - tm.best_at >= self.starve_s)).tolist()
+        reach = reach_cells(self.starve_s, tm.peak)
+        nb, fields = tm.grid.neighbours, tm.grid.fields.to
+        mark_hot(self, nb, fields, ((int(tm.sched.tail[i]), int(tm.goal[i])) for i in starved), reach)
+
+        if len(self._ways) > 8192:  # held robots' tails and goals change slowly: a small cache of their ways
+            self._ways.clear()
+
+        def crosses(h: Held) -> list[int]:
+            key = (int(tm.sched.tail[tm._idx[h.robot]]), h.x, h.y)
+            if key not in self._ways:
+                self._ways[key] = way(nb, fields(tm._goal_node(h.robot, h.x, h.y)), key[0], reach)
+            return self._ways[key]
+
+        self.crosses = crosses
+        if self.free_held and self.queue:
+            held = np.zeros(len(tm.names), bool)
+            held[[tm._idx[h.robot] for h in self.queue]] = True
+            waiting = tm.pending & (tm.a == tm.b) & (tm.sched.head_step < BIG)
+            here = np.where(tm.claim >= 0, tm.claim, tm.b)
+            tm.stats["withdrawn"] += free_held(tm.sched, here, held, np.flatnonzero(waiting).tolist())
+
+    def update(self, now: float, active: int, stalled: int) -> None:
+        """park's AIMD step, never below `floor`: with the held goals kept off the waits' ways, the share of robots
+        in a wait over 5 minutes still drives park's limit down to 23 robots (seed 9) while the waits go on."""
+        super().update(now, active, stalled)
+        self.limit = max(self.limit, self.floor)
+
+    def admit(self, active: int, now: float) -> list[Held]:
+        """As Admission.admit, skipping (keeping, in order) the held goals whose way crosses a hot cell."""
+        if not self.hot or self.crosses is None:
+            return super().admit(active, now)
+        out: list[Held] = []
+        kept: list[Held] = []
+        while self.queue and active + len(out) < self.limit:
+            h = self.queue.popleft()
+            if not self.hot.isdisjoint(self.crosses(h)):
+                kept.append(h)
+                self.stats["deferred"] = self.stats.get("deferred", 0) + 1
+                continue
+            self.stats["longest_hold_s"] = max(self.stats["longest_hold_s"], now - h.since)
+            out.append(h)
+        self.queue.extendleft(reversed(kept))
+        self.stats["admitted"] += len(out)
+        return out
+
+
+def mark_hot(adm: BoundAdmission, neighbours: list[list[int]], fields: Callable[[int], np.ndarray],
+             starved: Iterable[tuple[int, int]], reach: int) -> None:
+    """The hot cells: the next `reach` cells of every starved robot's way ((planned tail, goal) pairs)."""
+    adm.hot.clear()
+    for tail, goal in starved:
+        adm.hot.update(way(neighbours, fields(goal), tail, reach))
+
+
+def free_held(sched: Schedule, here: np.ndarray, held: np.ndarray, waiting: list[int]) -> int:
+    """Withdraw the unstarted moves of held robots queued into a waiting robot's next cell ahead of it (and of
+    whoever follows them, withdraw.cut_set), never an active robot's: a held robot's trip to its parking cell
+    can wait, the active robot's task cannot. Returns the moves withdrawn."""
+    return free_ahead(sched, here, np.where(held, -1.0, 1.0), waiting)
+
+
+def reach_cells(starve_s: float, peak: float, bound_s: float = WAIT_BOUND_S) -> int:
+    """Cells covered at `peak` cells/s between a robot starving and the bound."""
+    return max(1, math.ceil(peak * max(bound_s - starve_s, 0.0)))

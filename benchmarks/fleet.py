@@ -189,10 +189,10 @@ def main() -> None:
                     help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
     ap.add_argument("--one-way", nargs="*", choices=("off", "on"), default=["on"],
                     help="traffic layer: one-lane through corridors one-way (fleet/traffic/lanes.py), one run each")
-    ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park", "bound"), default=["park"],
+    ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park", "bound"), default=["bound"],
                     help="traffic layer: dispatch admission, one run each: aimd = new goals held (FIFO) while the "
                          "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); park: held robots "
-                         "wait on parking cells (the default); bound: park, and held goals crossing the way of a "
+                         "wait on parking cells; bound (the default): park, and held goals crossing the way of a "
                          "robot in a wait stay held (fleet/traffic/admission_wait.py)")
     ap.add_argument("--urgent-cells", type=int, default=None,
                     help="traffic layer: urgency ends once a robot is this many cells closer than when it became "

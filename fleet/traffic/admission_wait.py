@@ -30,8 +30,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from fleet.traffic.admission import Admission, Held
-from fleet.traffic.schedule import BIG, Schedule
-from fleet.traffic.withdraw import free_ahead
 
 if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
@@ -59,7 +57,6 @@ class BoundAdmission(Admission):
     hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
     crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
     floor: float = 1.0  # the limit never below this (the layer: half the start limit, 1/16 of the free cells)
-    free_held: bool = False  # withdraw held robots' unstarted moves ahead of active robots at rest (17k's hook)
     _ways: dict[tuple[int, float, float], list[int]] = field(default_factory=dict)  # (tail, goal x, y) -> way
 
     def observe(self, tm: TrafficManager, now: float) -> None:
@@ -80,12 +77,6 @@ class BoundAdmission(Admission):
             return self._ways[key]
 
         self.crosses = crosses
-        if self.free_held and self.queue:
-            held = np.zeros(len(tm.names), bool)
-            held[[tm._idx[h.robot] for h in self.queue]] = True
-            waiting = tm.pending & (tm.a == tm.b) & (tm.sched.head_step < BIG)
-            here = np.where(tm.claim >= 0, tm.claim, tm.b)
-            tm.stats["withdrawn"] += free_held(tm.sched, here, held, np.flatnonzero(waiting).tolist())
 
     def update(self, now: float, active: int, stalled: int) -> None:
         """park's AIMD step, never below `floor`: with the held goals kept off the waits' ways, the share of robots
@@ -118,13 +109,6 @@ def mark_hot(adm: BoundAdmission, neighbours: list[list[int]], fields: Callable[
     adm.hot.clear()
     for tail, goal in starved:
         adm.hot.update(way(neighbours, fields(goal), tail, reach))
-
-
-def free_held(sched: Schedule, here: np.ndarray, held: np.ndarray, waiting: list[int]) -> int:
-    """Withdraw the unstarted moves of held robots queued into a waiting robot's next cell ahead of it (and of
-    whoever follows them, withdraw.cut_set), never an active robot's: a held robot's trip to its parking cell
-    can wait, the active robot's task cannot. Returns the moves withdrawn."""
-    return free_ahead(sched, here, np.where(held, -1.0, 1.0), waiting)
 
 
 def reach_cells(starve_s: float, peak: float, bound_s: float = WAIT_BOUND_S) -> int:

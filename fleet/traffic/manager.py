@@ -67,7 +67,7 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
-                 admission: Literal["off", "aimd", "park", "bound"] = "park", urgent_cells: int | None = None,
+                 admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = None,
                  one_way: bool = True, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()

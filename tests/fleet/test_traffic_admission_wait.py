@@ -80,23 +80,6 @@ def test_layer_keeps_the_goal_through_a_starved_robots_corridor_held(tmp: Path) 
         assert not tm.held("r1") and not adm.hot and tm.active_count() == 3
 
 
-def test_held_robots_moves_ahead_of_a_waiting_robot_are_withdrawn_active_ones_kept() -> None:
-    from fleet.traffic.admission_wait import free_held
-    from tests.fleet.test_traffic_withdraw import schedule, state
-
-    for held, withdrawn in ((True, 2), (False, 0)):
-        # robot 0 at 6 is planned 6 → 5 → 9; robot 1 at 4 is planned into 5 after it, and waits for it there
-        s = schedule([6, 4], [[5, 4], [9, 5]])
-        assert [list(f) for f in s.fifo][5] == [0, 1]
-        here = np.array([6, 4])
-        assert free_held(s, here, np.array([held, False]), waiting=[1]) == withdrawn
-        queues, fifos, tails = state(s)
-        if held:  # cut back to where it stands: robot 1 is first into 5
-            assert queues == [[], [5]] and fifos[5] == [1] and tails == [6, 5]
-        else:  # an active robot's moves are never withdrawn
-            assert queues == [[5, 9], [5]] and fifos[5] == [0, 1] and tails == [9, 5]
-
-
 def test_bound_limit_never_below_half_the_start_limit() -> None:
     from fleet.traffic.admission import layer_admission
 

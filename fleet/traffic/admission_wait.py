@@ -56,7 +56,6 @@ class BoundAdmission(Admission):
     starve_s: float = 5.0  # a robot this long without coming closer protects its way (the layer: stall_s / 2)
     hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
     crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
-    floor: float = 1.0  # the limit never below this (the layer: half the start limit, 1/16 of the free cells)
     _ways: dict[tuple[int, float, float], list[int]] = field(default_factory=dict)  # (tail, goal x, y) -> way
 
     def observe(self, tm: TrafficManager, now: float) -> None:
@@ -77,12 +76,6 @@ class BoundAdmission(Admission):
             return self._ways[key]
 
         self.crosses = crosses
-
-    def update(self, now: float, active: int, stalled: int) -> None:
-        """park's AIMD step, never below `floor`: with the held goals kept off the waits' ways, the share of robots
-        in a wait over 5 minutes still drives park's limit down to 23 robots (seed 9) while the waits go on."""
-        super().update(now, active, stalled)
-        self.limit = max(self.limit, self.floor)
 
     def admit(self, active: int, now: float) -> list[Held]:
         """As Admission.admit, skipping (keeping, in order) the held goals whose way crosses a hot cell."""

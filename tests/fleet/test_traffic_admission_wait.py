@@ -91,3 +91,4 @@ def test_bound_limit_never_below_half_the_start_limit() -> None:
     plain.update(0.0, active=70, stalled=30)
     adm.update(0.0, active=70, stalled=30)
     assert plain.limit == 49 and adm.limit == 965 / 16  # cut to 0.7 · 70 = 49, held at 60.3
+    assert adm.stats["lowest_limit"] == 965 / 16  # the reported lowest is the limit applied

@@ -105,8 +105,8 @@ class TrafficSection(StrictModel):
     admission: Literal["off", "aimd", "park", "bound"] = Field(
         "bound", description="dispatch admission: new goals are held (FIFO, robot idle) while too many active robots "
         "are in a wait; the limit adapts (AIMD), none while the layer is not congested; park: as aimd, and held "
-        "robots wait on parking cells off the main flow; bound (the default): as park, and a held goal whose way crosses "
-        "the way of a robot in a wait stays held while that wait lasts")
+        "robots wait on parking cells off the main flow; bound (the default): as park, and a held goal whose way "
+        "crosses the way of a robot in a wait stays held while that wait lasts")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

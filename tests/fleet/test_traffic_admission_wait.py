@@ -80,15 +80,15 @@ def test_layer_keeps_the_goal_through_a_starved_robots_corridor_held(tmp: Path) 
         assert not tm.held("r1") and not adm.hot and tm.active_count() == 3
 
 
-def test_bound_limit_never_below_half_the_start_limit() -> None:
+def test_bound_limit_never_cut_below_the_start_limit() -> None:
     from fleet.traffic.admission import layer_admission
 
     adm = layer_admission("bound", 10.0, 965)
-    assert isinstance(adm, BoundAdmission) and adm.floor == 965 / 16 and adm.starve_s == 5.0
+    assert isinstance(adm, BoundAdmission) and adm.floor == adm.limit == 965 / 8 and adm.starve_s == 5.0
     adm.queue.append(Held("r", 0.0, 0.0, 0.0))
-    plain = Admission(stalled_share=0.05, limit=70)
-    adm.limit = 70
-    plain.update(0.0, active=70, stalled=30)
-    adm.update(0.0, active=70, stalled=30)
-    assert plain.limit == 49 and adm.limit == 965 / 16  # cut to 0.7 · 70 = 49, held at 60.3
-    assert adm.stats["lowest_limit"] == 965 / 16  # the reported lowest is the limit applied
+    plain = Admission(stalled_share=0.05, limit=150)
+    adm.limit = 150  # grown above the start limit while it bound
+    plain.update(0.0, active=150, stalled=30)
+    adm.update(0.0, active=150, stalled=30)
+    assert plain.limit == 105 and adm.limit == 965 / 8  # cut to 0.7 · 150 = 105, held at the start limit 120.6
+    assert adm.stats["lowest_limit"] == 965 / 8  # the reported lowest is the limit applied

@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -111,13 +113,23 @@ class Admission:
         else:
             self.limit = math.inf  # not binding and nobody waiting: no limit
 
+    def keeps(self, h: Held) -> bool:
+        """Whether a held goal the limit would start stays held now, in its place (bound: admission_wait.py)."""
+        return False
+
     def admit(self, active: int, now: float) -> list[Held]:
-        """The held goals to start now, oldest first, so that active robots stay within the limit."""
+        """The held goals to start now, oldest first, so that active robots stay within the limit; those `keeps`
+        holds back stay at the front of the FIFO in their order."""
         out: list[Held] = []
+        kept: list[Held] = []
         while self.queue and active + len(out) < self.limit:
             h = self.queue.popleft()
+            if self.keeps(h):
+                kept.append(h)
+                continue
             self.stats["longest_hold_s"] = max(self.stats["longest_hold_s"], now - h.since)
             out.append(h)
+        self.queue.extendleft(reversed(kept))
         self.stats["admitted"] += len(out)
         return out
 
@@ -133,11 +145,10 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     # bound: never cut below the start limit. Its waits are kept off locally (admission_wait.py), and a cut only
     # adds held robots, which obstruct too: over 5 minutes park's share signal drove its limit to 4 robots on one
     # seed, and with bound a floor of the start limit beats half of it by 13 % with no longer waits (docs, 10th landing)
-    adm = Admission(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
-                    grow_s=stall_s if park else 0.0, free_below=start if park else 0.0,
-                    floor=start if mode == "bound" else 1.0)
+    make: Callable[..., Admission] = Admission
     if mode == "bound":  # park's limit, and held goals kept off the ways of robots in a wait
         from fleet.traffic.admission_wait import BoundAdmission
 
-        return BoundAdmission(**vars(adm), starve_s=0.5 * stall_s)
-    return adm
+        make = partial(BoundAdmission, floor=start, starve_s=0.5 * stall_s)
+    return make(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
+                grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)

@@ -62,6 +62,9 @@ class BoundAdmission(Admission):
     def observe(self, tm: TrafficManager, now: float) -> None:
         """Mark the starved robots' ways hot and let held goals be checked against them (their way from the
         robot's planned tail to the held goal)."""
+        if not self.queue:  # nothing held, nothing to keep off (a fleet that flows pays nothing)
+            self.hot.clear()
+            return
         starved = np.flatnonzero(tm.pending & (now - tm.best_at >= self.starve_s)).tolist()
         reach = reach_cells(self.starve_s, tm.peak)
         nb, fields = tm.grid.neighbours, tm.grid.fields.to
@@ -78,23 +81,12 @@ class BoundAdmission(Admission):
 
         self.crosses = crosses
 
-    def admit(self, active: int, now: float) -> list[Held]:
-        """As Admission.admit, skipping (keeping, in order) the held goals whose way crosses a hot cell."""
-        if not self.hot or self.crosses is None:
-            return super().admit(active, now)
-        out: list[Held] = []
-        kept: list[Held] = []
-        while self.queue and active + len(out) < self.limit:
-            h = self.queue.popleft()
-            if not self.hot.isdisjoint(self.crosses(h)):
-                kept.append(h)
-                self.stats["deferred"] = self.stats.get("deferred", 0) + 1
-                continue
-            self.stats["longest_hold_s"] = max(self.stats["longest_hold_s"], now - h.since)
-            out.append(h)
-        self.queue.extendleft(reversed(kept))
-        self.stats["admitted"] += len(out)
-        return out
+    def keeps(self, h: Held) -> bool:
+        """A held goal whose own way crosses a hot cell stays held while the robot on that way starves."""
+        if not self.hot or self.crosses is None or self.hot.isdisjoint(self.crosses(h)):
+            return False
+        self.stats["deferred"] = self.stats.get("deferred", 0) + 1
+        return True
 
 
 def mark_hot(adm: BoundAdmission, neighbours: list[list[int]], fields: Callable[[int], np.ndarray],

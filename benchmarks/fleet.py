@@ -220,7 +220,8 @@ def main() -> None:
                          "cycle_waits", "longest_cycle_wait_s", "queue_waits", "longest_queue_wait_s", "classify_cpu_s",
                          "fields_computed", "withdrawn", "latency_p50_s", "latency_p95_s", "latency_max_s",
                          "oldest_open_task_s", "admission_limit", "lowest_limit", "held_now", "urgent_now",
-                         "longest_hold_s", "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load")
+                         "longest_hold_s", "layer_ms_per_tick", "rtf", "rtf_cpu", "wall_s", "cpu_s", "load",
+                         "waits_over_20_s", "waits_over_25_s", "waits_over_30_s")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
                     for prio, rule, wd, adm, ow in itertools.product(a.priority, a.rule, a.withdraw, a.admission,

@@ -41,7 +41,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
-                withdraw: str = "off", flush_s: float = 1.0, admission: str = "bound",
+                withdraw: str = "crowded", flush_s: float = 1.0, admission: str = "bound",
                 urgent_cells: int | None = None, one_way: bool = True) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))

@@ -182,9 +182,11 @@ def main() -> None:
     ap.add_argument("--congestion", type=float, default=4.0,
                     help="traffic layer, rule cong: toll per unit of recent occupancy for entering a cell "
                          "(congestion-aware routing, fleet/traffic/congestion.py; default 4)")
-    ap.add_argument("--withdraw", nargs="*", choices=("off", "loops", "ahead", "both", "flush"), default=["off"],
+    ap.add_argument("--withdraw", nargs="*", choices=("off", "loops", "ahead", "both", "flush", "crowded"),
+                    default=["crowded"],
                     help="traffic layer: withdraw unstarted moves, one run each: loops = planned loops; ahead = moves "
-                         "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); default off")
+                         "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); crowded = flush while "
+                         "goals are held (default)")
     ap.add_argument("--flush-s", type=float, default=1.0,
                     help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
     ap.add_argument("--one-way", nargs="*", choices=("off", "on"), default=["on"],

@@ -98,15 +98,17 @@ class TrafficSection(StrictModel):
         "to become urgent first")
     congestion: float = Field(0.0, ge=0, le=100, description="toll per unit of a cell's recent occupancy in the "
                               "fields robots pick moves by (0: off; for fleets that saturate an aisle)")
-    withdraw: Literal["off", "loops", "ahead", "both", "flush"] = Field(
-        "off", description="planned moves not yet started that are withdrawn: loops, moves ahead of an urgent robot, "
-        "both, or all every flush_s (a re-plan from the committed cells)")
+    withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = Field(
+        "crowded", description="planned moves not yet started that are withdrawn: loops, moves ahead of an urgent "
+        "robot, both, all every flush_s (a re-plan from the committed cells), or crowded (the default): all every "
+        "flush_s while admission holds goals")
     flush_s: float = Field(1.0, gt=0, le=60, description="period of withdraw: flush, s")
     admission: Literal["off", "aimd", "park", "bound"] = Field(
         "bound", description="dispatch admission: new goals are held (FIFO, robot idle) while too many active robots "
         "are in a wait; the limit adapts (AIMD), none while the layer is not congested; park: as aimd, and held "
-        "robots wait on parking cells off the main flow; bound (the default): as park, and a held goal whose way "
-        "crosses the way of a robot in a wait stays held while that wait lasts")
+        "robots wait on parking cells off the main flow; bound (the default): held robots park, the limit is fixed at "
+        "a tenth of the free cells, and a held goal whose way crosses the way of a robot in a wait stays held while "
+        "that wait lasts")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

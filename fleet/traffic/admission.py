@@ -62,7 +62,6 @@ class Admission:
     cooldown_s: float = 10.0  # no second decrease sooner: the stall signal lags by the layer's stall_s
     grow_s: float = 0.0  # no increase sooner after the last one (park: one robot per signal lag, as TCP per RTT)
     free_below: float = 0.0  # no decrease while nothing is held and at most this many robots are active (park)
-    floor: float = 1.0  # the limit is never cut below this (bound: the start limit, admission_wait.py)
     limit: float = math.inf
     queue: deque[Held] = field(default_factory=deque)
     _next: float = 0.0
@@ -103,7 +102,7 @@ class Admission:
             if active > self.limit or now < self._cut + self.cooldown_s:
                 return  # the last decrease has not taken effect yet (robots drain as they arrive): hold it
             self._cut = now
-            self.limit = max(self.floor, math.floor(self.decrease * min(self.limit, active)))
+            self.limit = max(1.0, math.floor(self.decrease * min(self.limit, active)))
             self.stats["decreases"] += 1
             self.stats["lowest_limit"] = min(self.stats["lowest_limit"], self.limit)
         elif active >= self.limit - 1 or self.queue:
@@ -142,13 +141,11 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
     # limit never starts below that: a small map's fleet that flows is never held (the corridor world: 28 cells).
     start = max(1.0 / STALLED_SHARE[mode], START_DENSITY * cells)
     park = mode in PARKED
-    # bound: never cut below the start limit. Its waits are kept off locally (admission_wait.py), and a cut only
-    # adds held robots, which obstruct too: over 5 minutes park's share signal drove its limit to 4 robots on one
-    # seed, and with bound a floor of the start limit beats half of it by 13 % with no longer waits (docs, 10th landing)
     make: Callable[..., Admission] = Admission
-    if mode == "bound":  # park's limit, and held goals kept off the ways of robots in a wait
-        from fleet.traffic.admission_wait import BoundAdmission
+    if mode == "bound":  # a fixed limit, and held goals kept off the ways of robots in a wait (admission_wait.py)
+        from fleet.traffic.admission_wait import BOUND_DENSITY, BoundAdmission
 
-        make = partial(BoundAdmission, floor=start, starve_s=0.5 * stall_s)
+        start = max(1.0 / STALLED_SHARE[mode], BOUND_DENSITY * cells)
+        make = partial(BoundAdmission, starve_s=0.5 * stall_s)
     return make(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
                 grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)

@@ -14,11 +14,16 @@ freeze or cut idles the whole fleet for one merge; measured worse, docs).
 
 `reach` = the cells a robot covers at the layer's peak speed in the time left between starving and the bound
 (`bound_s` − `starve_s`): a robot admitted farther away than that cannot reach the waiting robot's way before the
-wait must be over. The limit is `park`'s AIMD limit, but never cut below the start limit (1/8 of the free
-cells): over 5 minutes the share signal alone drove it to 23 robots on one seed, idling the fleet while the waits
-went on, and a floor of half the start limit still cost 13 % of the throughput against this one (docs).
+wait must be over.
+
+The limit is fixed: a tenth of the free cells (BOUND_DENSITY), not `park`'s AIMD limit. Over the issue's 10
+sim-minutes the AIMD's growth while the share signal stays low let the active robots drift up (to 121–139 on the
+warehouse), and the tail with them; with `withdraw: flush` (the layer's default, which re-plans every second, so
+nothing waits behind stale moves) a fixed tenth of the cells kept 3 of 4 seeds within 30 s where the adaptive
+limit kept 1 (docs/benchmarks-fleet.md, eleventh landing). Cutting it was measured worse in the tenth landing
+(held robots obstruct too), and below a tenth the waits grow again (77 active robots: as long as at 121).
 Nothing depends on the map: the bound, the layer's stall_s and speed, the free cells and the lane field.
-A fleet below the start limit never holds a goal, so nothing changes for it (the 100-robot warehouse).
+A fleet below the limit never holds a goal, so nothing changes for it.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
 
 WAIT_BOUND_S = 30.0  # every wait resolved within this (issue 17)
+BOUND_DENSITY = 0.10  # the fixed limit: active robots per free cell (module doc)
 
 
 def way(neighbours: list[list[int]], to_goal: np.ndarray, start: int, reach: int) -> list[int]:
@@ -52,12 +58,15 @@ def way(neighbours: list[list[int]], to_goal: np.ndarray, start: int, reach: int
 
 @dataclass
 class BoundAdmission(Admission):
-    """`park`'s limit, and held goals that would cross a starved robot's way kept held (module doc)."""
+    """A fixed limit, and held goals that would cross a starved robot's way kept held (module doc)."""
 
     starve_s: float = 5.0  # a robot this long without coming closer protects its way (the layer: stall_s / 2)
     hot: set[int] = field(default_factory=set)  # cells on the starved robots' ways (set by the layer every tick)
     crosses: Callable[[Held], Iterable[int]] | None = None  # a held goal's first cells (set by the layer)
     _ways: dict[tuple[int, float, float], list[int]] = field(default_factory=dict)  # (tail, goal x, y) -> way
+
+    def update(self, now: float, active: int, stalled: int) -> None:
+        """No AIMD step: the limit stays where the layer set it (a tenth of the free cells)."""
 
     def observe(self, tm: TrafficManager, now: float) -> None:
         """Mark the starved robots' ways hot and let held goals be checked against them (their way from the

@@ -24,7 +24,10 @@ without progress for `urgent_s` outranks all that are not urgent until it reache
 longest without progress first), yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way),
 dispatch admission (`admission`, admission.py: new goals held while the layer is congested; `park`, the default:
 held robots wait on parking cells off the main flow, parking.py) and, optionally, congestion-aware routing
-(congestion.py) and withdrawing planned moves not yet started (`withdraw`, withdraw.py).
+(congestion.py). Withdrawing planned moves not yet started (`withdraw`, withdraw.py): by default (`crowded`) all of
+them every `flush_s` (1 s) while admission holds goals, so in a crowd PIBT re-plans from the committed cells and no
+robot waits long behind moves planned before it (with `bound`'s fixed limit the 300-robot warehouse's waits over
+30 s fell from 48 to 7 over 8 × 10 sim-minutes, docs/benchmarks-fleet.md, eleventh landing).
 """
 
 from __future__ import annotations
@@ -66,7 +69,8 @@ class TrafficManager:
                  priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
-                 withdraw: Literal["off", "loops", "ahead", "both", "flush"] = "off", flush_s: float = 1.0,
+                 withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
+                 flush_s: float = 1.0,
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = None,
                  one_way: bool = True, record: bool = False) -> None:
         self.service = service
@@ -83,6 +87,7 @@ class TrafficManager:
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.pibt.yield_aside, self.pibt.push_frozen = yield_aside, push_frozen
+        self.pibt.traps = {v for chain in self.grid.one_way for v in chain}
         self.sched = Schedule(len(self.grid), record)
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
         self.peak = speed / cell  # cells/s
@@ -92,7 +97,7 @@ class TrafficManager:
         self.congestion = CongestionFields(self.grid.adjacency, congestion) if congestion > 0 else None
         if self.congestion is not None:
             self.pibt.field = self.congestion.to
-        self.withdraw = withdraw  # unstarted moves withdrawn: planned loops, moves ahead of urgent robots (withdraw.py)
+        self.withdraw = withdraw  # unstarted moves withdrawn: loops, ahead of urgent robots, all (withdraw.py)
         self.flush_s, self._flush_at = flush_s, 0.0
         self.admission = layer_admission(admission, stall_s, len(self.grid))  # new goals held while congested
         self.parking = Parking(self.grid) if admission in PARKED else None  # held robots wait off the main flow
@@ -160,7 +165,7 @@ class TrafficManager:
         adm, i = self.admission, self._idx[robot]
         if adm is not None and (adm.held(robot) or adm.must_hold(int(np.count_nonzero(self.pending)))):
             adm.hold(robot, x, y, self.service.world.time)
-            self.goal[i], self.pending[i] = self._idle_goal(i), False
+            self.goal[i], self.pending[i] = self._idle_goal(i, x, y), False
             return node
         return self._set_goal(i, node)
 
@@ -168,10 +173,13 @@ class TrafficManager:
         """The robot's goal is held by admission (not started yet)."""
         return self.admission is not None and self.admission.held(robot)
 
-    def _idle_goal(self, i: int) -> int:
-        """Where a held robot waits: its parking cell (parking.py), or where it is."""
-        here = int(self.sched.tail[i])
-        return here if self.parking is None else self.parking.assign(self.names[i], self.grid.xy[here], here)
+    def _idle_goal(self, i: int, x: float, y: float) -> int:
+        """Where a held robot waits: its parking cell (parking.py; towards its held goal (x, y)), or where it is."""
+        here, name = int(self.sched.tail[i]), self.names[i]
+        if self.parking is None:
+            return here
+        new = name not in self.parking.owner
+        return self.parking.assign(name, here, self.grid.fields.to(self._goal_node(name, x, y)) if new else None)
 
     def _goal_node(self, robot: str, x: float, y: float) -> int:
         i = self._idx[robot]
@@ -319,7 +327,7 @@ class TrafficManager:
                     self.on_reached(h.robot, now)
         for h in adm.queue:
             i = self._idx[h.robot]
-            self.goal[i] = self._idle_goal(i)
+            self.goal[i] = self._idle_goal(i, h.x, h.y)
 
 
     # ---- events of one robot (O(changed)) ----------------------------------------------------------------

@@ -10,7 +10,7 @@ from sim.errors import ErrorCode, FleetError, unknown_name
 
 PRIORITIES = ("goal_age", "since_progress")  # PIBT priority: time since the goal was given / since it last got closer
 URGENT_RANKS = ("since_progress", "since_urgent")  # order among urgent robots (priority.priorities)
-WITHDRAW = ("off", "loops", "ahead", "both", "flush")  # unstarted moves withdrawn (withdraw.py)
+WITHDRAW = ("off", "loops", "ahead", "both", "flush", "crowded")  # unstarted moves withdrawn (withdraw.py)
 
 
 def check_settings(*, cell: float, gap: float, radius: float, priority: str, window: int, urgent_s: float | None,

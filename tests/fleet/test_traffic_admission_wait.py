@@ -80,15 +80,46 @@ def test_layer_keeps_the_goal_through_a_starved_robots_corridor_held(tmp: Path) 
         assert not tm.held("r1") and not adm.hot and tm.active_count() == 3
 
 
-def test_bound_limit_never_cut_below_the_start_limit() -> None:
+def test_bound_limit_is_fixed_at_a_tenth_of_the_free_cells() -> None:
     from fleet.traffic.admission import layer_admission
 
     adm = layer_admission("bound", 10.0, 965)
-    assert isinstance(adm, BoundAdmission) and adm.floor == adm.limit == 965 / 8 and adm.starve_s == 5.0
+    assert isinstance(adm, BoundAdmission) and adm.limit == 96.5 and adm.starve_s == 5.0
+    small = layer_admission("bound", 10.0, 28)
+    assert small is not None and small.limit == 20.0  # never below 1 / the stalled share (0.05)
     adm.queue.append(Held("r", 0.0, 0.0, 0.0))
-    plain = Admission(stalled_share=0.05, limit=150)
-    adm.limit = 150  # grown above the start limit while it bound
-    plain.update(0.0, active=150, stalled=30)
-    adm.update(0.0, active=150, stalled=30)
-    assert plain.limit == 105 and adm.limit == 965 / 8  # cut to 0.7 · 150 = 105, held at the start limit 120.6
-    assert adm.stats["lowest_limit"] == 965 / 8  # the reported lowest is the limit applied
+    plain = Admission(stalled_share=0.05, limit=96.5)
+    for now, stalled in ((0.0, 30), (20.0, 0), (40.0, 0)):  # a cut, then two periods without waits
+        plain.update(now, active=96, stalled=stalled)
+        adm.update(now, active=96, stalled=stalled)
+    assert plain.limit == 69  # AIMD: cut to 0.7 · 96 = 67, then + 1 per period while it binds
+    assert adm.limit == 96.5 and adm.stats["decreases"] == 0  # bound: neither cut nor grown
+
+
+def test_crowded_flushes_planned_moves_only_while_goals_are_held(tmp: Path) -> None:
+    """`withdraw: crowded` (the default): every unstarted move is withdrawn each flush_s while admission holds a
+    goal, and none once nothing is held."""
+    with FleetService(FleetConfig(world=str(corridor_world(tmp)), seed=0, physics_hz=20.0, control_hz=10.0)) as svc:
+        starts = {"r0": (-4.5, -1.5), "r1": (-4.5, 1.5)}
+        for name, (x, y) in starts.items():
+            svc.spawn_robot(name, Pose2D(x, y, 0.0))
+        tm = enable_traffic(svc, cell=1.0, speed=0.6, window=3)  # three moves planned ahead: some unstarted
+        adm = tm.admission
+        assert tm.withdraw == "crowded" and isinstance(adm, BoundAdmission)
+
+        def setup() -> None:
+            for name in starts:
+                tm.add(name)
+            adm.limit = 1
+            tm.go("r0", 4.5, 1.5)  # through the corridor: started
+            tm.go("r1", -2.5, -1.5)  # held (limit 1)
+
+        svc.call(setup)
+        svc.advance(4.0)
+        assert tm.held("r1") and tm.stats["withdrawn"] > 0  # crowded: r0's unstarted moves re-planned each second
+        adm.limit = 2
+        svc.advance(0.5)  # r1 admitted: nothing held
+        assert not tm.held("r1")
+        before = tm.stats["withdrawn"]
+        svc.advance(4.0)
+        assert tm.stats["withdrawn"] == before and tm.stats["steps"] > 0  # not crowded: plans kept

@@ -127,3 +127,22 @@ def test_robots_meeting_head_on_never_share_the_one_way_row() -> None:
         assert not (cur[0] in middle and cur[1] in middle)
         assert all(fields.to(g)[c] < b for g, c, b in zip(goals, cur, before, strict=True) if b > 0)  # no step back
     assert cur == goals and steps == 11
+
+
+def test_a_pushed_robot_is_never_pushed_into_a_one_way_corridor_that_leads_away() -> None:
+    """B rests at node 1 (its goal); A wants node 1. B's only free neighbour is 3, the mouth of the one-way
+    corridor 3 → 4 → 2, which would take it 3 cells round to where it stands (0 holds C, frozen; 2 is A's).
+    Without traps B is pushed in; with them B stays and A waits (it has no other node)."""
+    neighbours = [[1], [0, 2, 3], [1], [4], [2]]
+    to_1 = np.array([1.0, 0.0, 1.0, 3.0, 2.0])
+    to_0 = np.array([0.0, 1.0, 2.0, 4.0, 3.0])
+    fields = {0: to_0, 1: to_1}
+    pibt = PIBT(neighbours, fields.__getitem__, 0)
+    pibt.push_frozen = False  # C is an obstacle
+    cur, goals, priority = [2, 1, 0], [1, 1, 0], np.array([2.0, 1.0, 0.5])
+    assert pibt.step(cur, goals, priority, frozen=[2]) == [1, 3, 0]  # pushed into the corridor
+    pibt.traps = {3, 4}
+    assert pibt.step(cur, goals, priority, frozen=[2]) == [2, 1, 0]  # not: A waits
+    goals = [1, 4, 0]  # the corridor is B's way now (4 is its goal): it may go in
+    fields[4] = np.array([3.0, 2.0, 3.0, 1.0, 0.0])
+    assert pibt.step(cur, goals, priority, frozen=[2]) == [1, 3, 0]

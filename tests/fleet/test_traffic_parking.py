@@ -52,14 +52,26 @@ def test_parking_cells_are_the_quiet_ones_and_never_adjacent() -> None:
 def test_assign_gives_the_nearest_free_cell_and_keeps_it() -> None:
     p = Parking(cast(TrafficGrid, Line(9)))
     assert p.cells.tolist() == [0, 2, 6, 8]
-    assert p.assign("a", np.array([5.1, 0.0]), 5) == 6
-    assert p.assign("b", np.array([5.1, 0.0]), 5) == 8  # 6 is taken: the next nearest
-    assert p.assign("a", np.array([0.0, 0.0]), 0) == 6  # kept once given
+    assert p.assign("a", 5) == 6  # trips 5, 3, 1, 3 cells: the nearest (no goal given)
+    assert p.assign("b", 7) == 8  # 6 is taken: trips 7, 5, 1
+    assert p.assign("a", 0) == 6  # kept once given
     for k in "cd":
-        p.assign(k, np.array([0.0, 0.0]), 0)
-    assert p.assign("e", np.array([4.0, 0.0]), 4) == 4  # none free: where it is
+        p.assign(k, 0)
+    assert p.assign("e", 4) == 4  # none free: where it is
     p.release("a")
-    assert p.assign("e", np.array([4.0, 0.0]), 4) == 6
+    assert p.assign("e", 4) == 6
+
+
+def test_assign_goes_towards_the_held_goal_within_the_slack() -> None:
+    line = Line(9)
+    to_goal = np.abs(np.arange(9) - 8.0)  # the held goal is cell 8
+    p = Parking(cast(TrafficGrid, line))
+    # from 4: trips 4, 2, 2, 4 (nearest 2, slack 3: all four); nearest the goal: 8, 4 cells away
+    assert p.assign("a", 4, to_goal) == 8
+    # from 1: trips 1, 1, 5 (8 is taken): within 1 + 3 only 0 and 2; of those 2 is nearer the goal
+    assert p.assign("b", 1, to_goal) == 2
+    # equally near the goal (goal 4: cells 2 and 6 both 2 away): the shorter trip
+    assert p.assign("c", 7, np.abs(np.arange(9) - 4.0)) == 6
 
 
 @pytest.fixture(scope="module")

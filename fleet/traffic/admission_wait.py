@@ -16,12 +16,13 @@ freeze or cut idles the whole fleet for one merge; measured worse, docs).
 (`bound_s` − `starve_s`): a robot admitted farther away than that cannot reach the waiting robot's way before the
 wait must be over.
 
-The limit is fixed: a tenth of the free cells (BOUND_DENSITY), not `park`'s AIMD limit. Over the issue's 10
-sim-minutes the AIMD's growth while the share signal stays low let the active robots drift up (to 121–139 on the
-warehouse), and the tail with them; with `withdraw: flush` (the layer's default, which re-plans every second, so
-nothing waits behind stale moves) a fixed tenth of the cells kept 3 of 4 seeds within 30 s where the adaptive
-limit kept 1 (docs/benchmarks-fleet.md, eleventh landing). Cutting it was measured worse in the tenth landing
-(held robots obstruct too), and below a tenth the waits grow again (77 active robots: as long as at 121).
+The limit is fixed: a tenth of the free cells (BOUND_DENSITY), not `park`'s AIMD limit. Over the issue's 10 sim-
+minutes the AIMD's growth while the share signal stays low let the active robots drift up (to 121–139 on the
+warehouse), and the tail with them; with the flush (`withdraw: crowded`, the layer's default: a re-plan every second
+while goals are held, so nothing waits behind stale moves) a fixed tenth of the cells kept 3 of 4 seeds within 30 s
+where the adaptive limit kept 1 (docs/benchmarks-fleet.md, eleventh landing). Cutting it was measured worse in the
+tenth landing (held robots obstruct too), and below a tenth the waits grow again (77 active robots: as long as at
+121).
 Nothing depends on the map: the bound, the layer's stall_s and speed, the free cells and the lane field.
 A fleet below the limit never holds a goal, so nothing changes for it.
 """

@@ -15,19 +15,19 @@ stopping when the next cell is already claimed. No fleet-wide barrier: a robot w
 whose cells it needs, so slow or delayed robots hold up only those behind them.
 
 Waits (stalls.py): a robot that has not come closer to its goal for `stall_s` raises a `deadlock` event naming it
-and the robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how long
-it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
-edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can
-oscillate (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or
-column's direction cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot
-without progress for `urgent_s` outranks all that are not urgent until it reaches its goal; among the urgent, the
-longest without progress first), yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way),
-dispatch admission (`admission`, admission.py: new goals held while the layer is congested; `park`, the default:
+and the robots it waits for, with the resolution; `deadlock_resolved` reports when it moves closer again and how
+long it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing priorities end waits on graphs where every
+edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can oscillate
+(pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or column's direction
+cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot without progress for
+`urgent_s` outranks all that are not urgent until it reaches its goal; among the urgent, the longest without
+progress first), yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way), dispatch admission
+(`admission`, admission.py: new goals held while the layer is congested; `bound`, the default, admission_wait.py:
 held robots wait on parking cells off the main flow, parking.py) and, optionally, congestion-aware routing
 (congestion.py). Withdrawing planned moves not yet started (`withdraw`, withdraw.py): by default (`crowded`) all of
 them every `flush_s` (1 s) while admission holds goals, so in a crowd PIBT re-plans from the committed cells and no
-robot waits long behind moves planned before it (with `bound`'s fixed limit the 300-robot warehouse's waits over
-30 s fell from 48 to 7 over 8 × 10 sim-minutes, docs/benchmarks-fleet.md, eleventh landing).
+robot waits long behind moves planned before it (with `bound`'s fixed limit the 300-robot warehouse's waits over 30
+s fell from 48 to 7 over 8 × 10 sim-minutes, docs/benchmarks-fleet.md, eleventh landing).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ Parking cells are chosen once per grid, from the grid alone (no per-map list): t
 through (`through_flow`, on the layer's own lane fields, from every node to an evenly spread sample of goals), at most
 the median, taken greedily in increasing flow with no two of them adjacent, so parked robots never form a wall
 and every cell next to a parked robot stays free for passing. On the warehouse these are the cells along the walls
-of the wide aisles and every other cell of the rack aisles' rows; the central aisles are never used.
+of the wide aisles, every other cell of the rack aisles' rows, and 12 of the three-wide central aisle's 117 cells.
 
 Which one a held robot gets: among the free parking cells at most PARK_SLACK cells farther (along the lane fields)
 than the nearest, the one nearest its held goal. Trips to parking are as much driving as the tasks themselves

@@ -42,7 +42,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
                 withdraw: str = "crowded", flush_s: float = 1.0, admission: str = "bound",
-                urgent_cells: int | None = None, one_way: bool = True) -> dict[str, Any]:
+                urgent_cells: int | None = 3, one_way: bool = True) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:

@@ -196,9 +196,9 @@ def main() -> None:
                          "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); park: held robots "
                          "wait on parking cells; bound (the default): park, and held goals crossing the way of a "
                          "robot in a wait stay held (fleet/traffic/admission_wait.py)")
-    ap.add_argument("--urgent-cells", type=int, default=None,
+    ap.add_argument("--urgent-cells", type=int, default=3,
                     help="traffic layer: urgency ends once a robot is this many cells closer than when it became "
-                         "urgent (it may become urgent again); default: urgent until it reaches its goal")
+                         "urgent (it may become urgent again); default 3")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()

@@ -109,6 +109,8 @@ class TrafficSection(StrictModel):
         "robots wait on parking cells off the main flow; bound (the default): held robots park, the limit is fixed at "
         "a tenth of the free cells, and a held goal whose way crosses the way of a robot in a wait stays held while "
         "that wait lasts")
+    urgent_cells: int | None = Field(3, ge=1, description="urgency ends once a robot is this many cells closer than "
+                                     "when it became urgent (null: at its goal)")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

@@ -71,7 +71,7 @@ class TrafficManager:
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
                  flush_s: float = 1.0,
-                 admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = None,
+                 admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
                  one_way: bool = True, record: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
@@ -82,7 +82,7 @@ class TrafficManager:
                        withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells)
         self.priority, self.window, self.stall_s = priority, window, stall_s
         self.urgent_s, self.urgent_rank = urgent_s, urgent_rank
-        self.urgent_cells = urgent_cells  # urgency ends after this many cells closer than when it began (None: at goal)
+        self.urgent_cells = urgent_cells  # urgency ends this many cells closer than when it began (None: at goal; docs)
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)

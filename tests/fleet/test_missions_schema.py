@@ -149,6 +149,8 @@ def test_every_traffic_key_is_a_layer_setting_and_bad_values_are_named() -> None
     section = TrafficSection.model_validate({"urgent_rank": "since_urgent", "congestion": 4})
     keys = set(section.model_dump(exclude={"type"}))
     assert keys <= set(SETTINGS), sorted(keys - set(SETTINGS))
+    assert set(SETTINGS) - keys == {"seed"}  # and every layer setting but its RNG seed is a key
+    assert section.urgent_cells == 3 and section.withdraw == "crowded"  # the layer's defaults
     assert section.urgent_rank == "since_urgent" and section.congestion == 4
     with pytest.raises(ValueError, match="urgent_rank"):
         TrafficSection.model_validate({"urgent_rank": "oldest"})

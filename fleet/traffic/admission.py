@@ -139,13 +139,13 @@ def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:
         return None
     # The stalled share cannot be measured on fewer than 1 / share robots (one wait already exceeds it), so the
     # limit never starts below that: a small map's fleet that flows is never held (the corridor world: 28 cells).
-    start = max(1.0 / STALLED_SHARE[mode], START_DENSITY * cells)
-    park = mode in PARKED
     make: Callable[..., Admission] = Admission
+    density = START_DENSITY
     if mode == "bound":  # a fixed limit, and held goals kept off the ways of robots in a wait (admission_wait.py)
         from fleet.traffic.admission_wait import BOUND_DENSITY, BoundAdmission
 
-        start = max(1.0 / STALLED_SHARE[mode], BOUND_DENSITY * cells)
-        make = partial(BoundAdmission, starve_s=0.5 * stall_s)
+        density, make = BOUND_DENSITY, partial(BoundAdmission, starve_s=0.5 * stall_s)
+    start = max(1.0 / STALLED_SHARE[mode], density * cells)
+    park = mode in PARKED
     return make(cooldown_s=stall_s, limit=start, stalled_share=STALLED_SHARE[mode],
                 grow_s=stall_s if park else 0.0, free_below=start if park else 0.0)

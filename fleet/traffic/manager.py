@@ -25,9 +25,7 @@ progress first), yielding aside (pibt.py: a pushed robot prefers a node off its 
 (`admission`, admission.py: new goals held while the layer is congested; `bound`, the default, admission_wait.py:
 held robots wait on parking cells off the main flow, parking.py) and, optionally, congestion-aware routing
 (congestion.py). Withdrawing planned moves not yet started (`withdraw`, withdraw.py): by default (`crowded`) all of
-them every `flush_s` (1 s) while admission holds goals, so in a crowd PIBT re-plans from the committed cells and no
-robot waits long behind moves planned before it (with `bound`'s fixed limit the 300-robot warehouse's waits over 30
-s fell from 48 to 7 over 8 × 10 sim-minutes, docs/benchmarks-fleet.md, eleventh landing).
+them every `flush_s` while admission holds goals, so in a crowd PIBT re-plans from the committed cells.
 """
 
 from __future__ import annotations
@@ -70,9 +68,8 @@ class TrafficManager:
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
-                 flush_s: float = 1.0,
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
-                 one_way: bool = True, record: bool = False) -> None:
+                 one_way: bool = True, record: bool = False, flush_s: float = 1.0) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -328,7 +325,6 @@ class TrafficManager:
         for h in adm.queue:
             i = self._idx[h.robot]
             self.goal[i] = self._idle_goal(i, h.x, h.y)
-
 
     # ---- events of one robot (O(changed)) ----------------------------------------------------------------
 

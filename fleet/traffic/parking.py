@@ -82,7 +82,7 @@ class Parking:
                 self._trips = np.stack([self.grid.fields.to(int(c)) for c in self.cells]) if len(self.cells) \
                     else np.zeros((0, len(self.grid)))
             trip = np.where(self.free, self._trips[:, here], np.inf)
-            if not trip.size or not np.isfinite(trip.min()):
+            if not np.isfinite(trip.min(initial=np.inf)):
                 return here
             cost = trip if to_goal is None else to_goal[self.cells] + 1e-3 * trip  # ties: the shorter trip
             k = int(np.argmin(np.where(trip <= trip.min() + PARK_SLACK, cost, np.inf)))

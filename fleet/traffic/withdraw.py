@@ -160,11 +160,14 @@ def withdraw_step(tm: TrafficManager, now: float) -> None:
     limit). In a small packed room with persistent goals a flush every second breaks the multi-move manoeuvres
     PIBT plans and the robots never settle (4 robots rotating round a 2 × 2 block: still moving after 240 s;
     without it they are there in 10 s), and such fleets never have a goal held."""
+    due = now >= tm._flush_at and (tm.withdraw == "flush" or (tm.withdraw == "crowded" and crowded(tm)))
+    if tm.withdraw in ("flush", "crowded") and not due:
+        return  # between flushes (every tick, the default's case): nothing to compute
     here = np.where(tm.claim >= 0, tm.claim, tm.b)
     if tm.withdraw in ("loops", "both"):
         for i in np.flatnonzero(tm.sched.queued >= 2).tolist():
             tm.stats["withdrawn"] += tm.sched.withdraw_loops(i, int(here[i]))
-    if (tm.withdraw == "flush" or (tm.withdraw == "crowded" and crowded(tm))) and now >= tm._flush_at:
+    if due:
         tm._flush_at = now + tm.flush_s
         tm.stats["withdrawn"] += flush(tm.sched, here)
     if tm.withdraw in ("ahead", "both"):

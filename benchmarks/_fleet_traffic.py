@@ -38,7 +38,7 @@ def latency_summary(latency: list[float], open_ages: list[float]) -> dict[str, f
 
 def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 1.0, speed: float = 0.8,
                 physics_hz: float = 50.0, window: int = 1, lidar: str = "360 beams 10 Hz",
-                priority: str = "goal_age", urgent_s: float | None = 12.0, yield_aside: bool = True,
+                priority: str = "goal_age", urgent_s: float | None = 10.0, yield_aside: bool = True,
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
                 withdraw: str = "crowded", flush_s: float = 1.0, admission: str = "bound",

@@ -90,8 +90,8 @@ class TrafficSection(StrictModel):
     lane_cost: float = Field(3.0, ge=1, le=100, description="cost factor of crossing a one-lane cell")
     highway: float = Field(4.0, ge=1, le=100, description="cost factor of a move against a row's/column's lane "
                            "direction (1: no lanes)")
-    urgent_s: float | None = Field(12.0, gt=0, description="a robot not closer for this long outranks the rest "
-                                   "until it arrives (null: off)")
+    urgent_s: float | None = Field(10.0, gt=0, description="a robot not closer for this long outranks the rest "
+                                   "until it is urgent_cells closer (null: off)")
     yield_aside: bool = Field(True, description="a pushed robot prefers a cell its pusher does not need next")
     urgent_rank: Literal["since_progress", "since_urgent"] = Field(
         "since_progress", description="order among urgent robots: longest without getting closer first, or first "

@@ -64,7 +64,7 @@ class TrafficManager:
 
     def __init__(self, service: FleetService, *, cell: float = 1.0, speed: float = 0.45, seed: int = 0,
                  stall_s: float = 10.0, window: int = 1, lane_cost: float = 3.0,
-                 priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 12.0,
+                 priority: Literal["goal_age", "since_progress"] = "goal_age", urgent_s: float | None = 10.0,
                  yield_aside: bool = True, highway: float = 4.0, push_frozen: bool = True,
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",

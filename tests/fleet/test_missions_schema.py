@@ -142,6 +142,22 @@ def test_registry_refuses_a_second_registration_and_lists_names():
         reg.get("v")
 
 
+def test_traffic_defaults_are_the_layers_but_speed() -> None:
+    """A mission without a `traffic:` key runs the layer as tuned (e.g. urgent_s 10 s since the twelfth landing);
+    `speed` is the one documented difference (missions 0.6 m/s, the Python API 0.45)."""
+    import inspect
+
+    from fleet.missions.schema import TrafficSection
+    from fleet.traffic.manager import TrafficManager
+
+    section = TrafficSection.model_validate({})
+    params = inspect.signature(TrafficManager.__init__).parameters
+    differ = {k: (v, params[k].default) for k, v in section.model_dump(exclude={"type"}).items()
+              if v != params[k].default}
+    assert differ == {"speed": (0.6, 0.45)}, differ
+    assert section.urgent_s == 10.0
+
+
 def test_every_traffic_key_is_a_layer_setting_and_bad_values_are_named() -> None:
     from fleet.missions.schema import TrafficSection
     from fleet.traffic.layer import SETTINGS

@@ -41,6 +41,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from fleet import Event, FleetConfig, FleetService
+from fleet.traffic.admission import ADMISSION
+from fleet.traffic.settings import WITHDRAW
 from sim import Pose2D
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -183,8 +185,7 @@ def main() -> None:
     ap.add_argument("--congestion", type=float, default=4.0,
                     help="traffic layer, rule cong: toll per unit of recent occupancy for entering a cell "
                          "(congestion-aware routing, fleet/traffic/congestion.py; default 4)")
-    ap.add_argument("--withdraw", nargs="*", choices=("off", "loops", "ahead", "both", "flush", "crowded"),
-                    default=["crowded"],
+    ap.add_argument("--withdraw", nargs="*", choices=WITHDRAW, default=["crowded"],
                     help="traffic layer: withdraw unstarted moves, one run each: loops = planned loops; ahead = moves "
                          "ahead of urgent robots; both; flush = all, every --flush-s (re-plan); crowded = flush while "
                          "goals are held (default)")
@@ -192,7 +193,7 @@ def main() -> None:
                     help="traffic layer, --withdraw flush: period of the re-plan from the committed cells (default 1)")
     ap.add_argument("--one-way", nargs="*", choices=("off", "on"), default=["on"],
                     help="traffic layer: one-lane through corridors one-way (fleet/traffic/lanes.py), one run each")
-    ap.add_argument("--admission", nargs="*", choices=("off", "aimd", "park", "bound"), default=["bound"],
+    ap.add_argument("--admission", nargs="*", choices=ADMISSION, default=["bound"],
                     help="traffic layer: dispatch admission, one run each: aimd = new goals held (FIFO) while the "
                          "layer is congested, limit adapted AIMD-style (fleet/traffic/admission.py); park: held robots "
                          "wait on parking cells; bound (the default): park, and held goals crossing the way of a "

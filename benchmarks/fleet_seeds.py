@@ -29,6 +29,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.append(str(HERE))
 
+from fleet.traffic.admission import ADMISSION  # noqa: E402 (after the path set-up)
+
 COLUMNS = ("seed", "done_per_min", "robot_collisions", "obstacle_hits", "failed", "deadlocks", "waits_over_20_s",
            "waits_over_25_s", "waits_over_30_s", "longest_deadlock_s", "longest_open_s", "cycle_waits",
            "admission_limit", "lowest_limit", "latency_p95_s", "rtf", "load")
@@ -69,7 +71,7 @@ def main() -> None:
     ap.add_argument("--robots", type=int, default=300)
     ap.add_argument("--minutes", type=float, default=2.0)
     ap.add_argument("--lidar", choices=("on", "off"), default="off", help="off: the same decisions, ~3× faster")
-    ap.add_argument("--admission", choices=("off", "aimd", "park", "bound"), default="bound")
+    ap.add_argument("--admission", choices=ADMISSION, default="bound")
     ap.add_argument("--bound", type=float, default=30.0, help="the wait bound, s (issue 17: 30)")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes")
     a = ap.parse_args()

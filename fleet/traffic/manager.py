@@ -175,8 +175,9 @@ class TrafficManager:
         here, name = int(self.sched.tail[i]), self.names[i]
         if self.parking is None:
             return here
-        new = name not in self.parking.owner
-        return self.parking.assign(name, here, self.grid.fields.to(self._goal_node(name, x, y)) if new else None)
+        kept = self.parking.kept(name)  # kept once given: no goal field needed on every tick
+        return kept if kept is not None else self.parking.assign(name, here,
+                                                                 self.grid.fields.to(self._goal_node(name, x, y)))
 
     def _goal_node(self, robot: str, x: float, y: float) -> int:
         i = self._idx[robot]

@@ -72,6 +72,11 @@ class Parking:
         self.free = np.ones(len(self.cells), bool)
         self._trips: np.ndarray | None = None  # (parking cell, node): distance from the node to the cell
 
+    def kept(self, robot: str) -> int | None:
+        """The parking cell already given to the robot, if any."""
+        k = self.owner.get(robot)
+        return None if k is None else int(self.cells[k])
+
     def assign(self, robot: str, here: int, to_goal: np.ndarray | None = None) -> int:
         """The robot's parking cell: kept once given; else, among the free ones at most PARK_SLACK cells farther
         from `here` than the nearest, the one nearest the held goal (`to_goal`: its distance field; without it,

@@ -42,7 +42,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 highway: float = 4.0, lane_cost: float = 3.0, push_frozen: bool = True,
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
                 withdraw: str = "crowded", flush_s: float = 1.0, admission: str = "bound",
-                urgent_cells: int | None = 3, one_way: bool = True) -> dict[str, Any]:
+                urgent_cells: int | None = 3, one_way: bool = True, urgent_window: int = 1) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -51,7 +51,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                              urgent_s=urgent_s, yield_aside=yield_aside, highway=highway, lane_cost=lane_cost,
                              push_frozen=push_frozen, congestion=congestion,
                              urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s,
-                             admission=admission, urgent_cells=urgent_cells, one_way=one_way)
+                             admission=admission, urgent_cells=urgent_cells, one_way=one_way,
+                             urgent_window=urgent_window)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -132,7 +133,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
         return {"robots": n, "avoidance": f"traffic (PIBT+ADG, {priority}, urgent_s {urgent_s}, "
                 f"yield_aside {yield_aside}, highway {highway:g}, lane_cost {lane_cost:g}, push_frozen {push_frozen}, "
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
-                f"window {window}, withdraw {withdraw}, admission {admission}, urgent_cells {urgent_cells}, "
+                f"window {window} (urgent {urgent_window}), withdraw {withdraw}, admission {admission}, "
+                f"urgent_cells {urgent_cells}, "
                 f"one_way {one_way}"
                 f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",

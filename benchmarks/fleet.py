@@ -201,6 +201,8 @@ def main() -> None:
     ap.add_argument("--urgent-cells", type=int, default=3,
                     help="traffic layer: urgency ends once a robot is this many cells closer than when it became "
                          "urgent (it may become urgent again); default 3")
+    ap.add_argument("--urgent-window", type=int, default=1,
+                    help="traffic layer: moves an urgent robot may have planned ahead (default 1: --window)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -231,7 +233,7 @@ def main() -> None:
                     for prio, rule, wd, adm, ow in itertools.product(a.priority, a.rule, a.withdraw, a.admission,
                                                                      a.one_way):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
-                                        **{"window": a.window, **RULES[rule]},
+                                        **{"window": a.window, "urgent_window": a.urgent_window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
                                         withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
                                         one_way=ow == "on",

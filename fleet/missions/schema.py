@@ -111,6 +111,9 @@ class TrafficSection(StrictModel):
         "that wait lasts")
     urgent_cells: int | None = Field(3, ge=1, description="urgency ends once a robot is this many cells closer than "
                                      "when it became urgent (null: at its goal)")
+    urgent_window: int = Field(1, ge=1, le=16, description="moves an urgent robot may have planned ahead (1: "
+                               "window; 2 shortens the 100-robot warehouse's long waits and lengthens the 300-robot "
+                               "ones, docs/benchmarks-fleet.md)")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

@@ -20,12 +20,13 @@ long it took. The ADG is acyclic, so no wait is a cycle; PIBT's growing prioriti
 edge lies on a cycle, but robots can be pushed back and forth for a long time, and in dead ends PIBT can oscillate
 (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or column's direction
 cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot without progress for
-`urgent_s` outranks all that are not urgent until it reaches its goal; among the urgent, the longest without
-progress first), yielding aside (pibt.py: a pushed robot prefers a node off its pusher's way), dispatch admission
-(`admission`, admission.py: new goals held while the layer is congested; `bound`, the default, admission_wait.py:
-held robots wait on parking cells off the main flow, parking.py) and, optionally, congestion-aware routing
-(congestion.py). Withdrawing planned moves not yet started (`withdraw`, withdraw.py): by default (`crowded`) all of
-them every `flush_s` while admission holds goals, so in a crowd PIBT re-plans from the committed cells.
+`urgent_s` outranks all that are not urgent until it is `urgent_cells` closer; among the urgent, the longest without
+progress first; an urgent robot plans `urgent_window` moves ahead, priority.lookahead), yielding aside (pibt.py: a
+pushed robot prefers a node off its pusher's way), dispatch admission (`admission`, admission.py: new goals held
+while the layer is congested; `bound`, the default, admission_wait.py: held robots wait on parking cells off the
+main flow, parking.py) and, optionally, congestion-aware routing (congestion.py). Withdrawing planned moves not yet
+started (`withdraw`, withdraw.py): by default (`crowded`) all of them every `flush_s` while admission holds goals,
+so in a crowd PIBT re-plans from the committed cells.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import drive
 from fleet.traffic.parking import Parking
 from fleet.traffic.pibt import PIBT
-from fleet.traffic.priority import priorities
+from fleet.traffic.priority import lookahead, priorities, urgent_room
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
 from fleet.traffic.stalls import close_stall, open_stalls
@@ -69,17 +70,17 @@ class TrafficManager:
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
-                 one_way: bool = True, record: bool = False, flush_s: float = 1.0) -> None:
+                 one_way: bool = True, record: bool = False, flush_s: float = 1.0, urgent_window: int = 1) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
         self.gap = 2 * self.radius + GAP_MARGIN
         check_settings(cell=cell, gap=self.gap, radius=self.radius, priority=priority, window=window,
                        urgent_s=urgent_s, urgent_rank=urgent_rank, highway=highway, congestion=congestion,
-                       withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells)
-        self.priority, self.window, self.stall_s = priority, window, stall_s
-        self.urgent_s, self.urgent_rank = urgent_s, urgent_rank
-        self.urgent_cells = urgent_cells  # urgency ends this many cells closer than when it began (None: at goal; docs)
+                       withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells,
+                       urgent_window=urgent_window)
+        self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
+        self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -299,7 +300,7 @@ class TrafficManager:
         #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
         if self.admission is not None:
             self._admit(now)
-        want = (sched.head_step >= BIG) & (sched.tail != self.goal)
+        want = ((sched.head_step >= BIG) | urgent_room(self)) & (sched.tail != self.goal)
         if want.any():
             self._plan(now)
         open_stalls(self, now)
@@ -378,7 +379,7 @@ class TrafficManager:
         priority = priorities(self, now)
         if self.congestion is not None:
             self.congestion.refresh(now)
-        frozen = np.flatnonzero(self.sched.queued >= self.window).tolist()
+        frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

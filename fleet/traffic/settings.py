@@ -15,15 +15,16 @@ WITHDRAW = ("off", "loops", "ahead", "both", "flush", "crowded")  # unstarted mo
 
 def check_settings(*, cell: float, gap: float, radius: float, priority: str, window: int, urgent_s: float | None,
                    urgent_rank: str, highway: float, congestion: float, withdraw: str, flush_s: float,
-                   admission: str, urgent_cells: int | None = None) -> None:
+                   admission: str, urgent_cells: int | None = None, urgent_window: int = 1) -> None:
     """Raise INVALID_ARGUMENT for the first setting out of its range (`gap`: the cell a robot needs, m)."""
     if gap > cell:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
                          f"radius {radius:.3f} m", f"use cell ≥ {gap:.2f} m")
     if priority not in PRIORITIES:
         raise unknown_name("traffic priority", priority, list(PRIORITIES), ErrorCode.INVALID_ARGUMENT)
-    if window < 1:
-        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic window must be ≥ 1 step, got {window}")
+    for key, value in (("window", window), ("urgent_window", urgent_window)):
+        if value < 1:
+            raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic {key} must be ≥ 1 step, got {value}")
     if urgent_s is not None and not (math.isfinite(urgent_s) and urgent_s > 0):
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_s must be > 0 s (or None: off), got "
                          f"{urgent_s}")

@@ -1,0 +1,99 @@
+"""An urgent robot's look-ahead (manager.py `urgent_window`, priority.lookahead): it plans `urgent_window` moves
+ahead while the others plan `window`, and the layer stays safe and live with it."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fleet import FleetConfig, FleetService
+from fleet.traffic import TrafficManager, enable_traffic
+from sim import Pose2D
+from sim.errors import FleetError
+from tests.fleet.test_traffic_async import Truth, world
+
+ROW = -0.5  # the south row of the room (tests/fleet/test_traffic_urgency.py's)
+
+
+def drive_urgent(tmp: Path, urgent_window: int) -> dict[str, float]:
+    """r0 made urgent at the west end of the south row, its goal 7 cells east, and r2 sent east along the north
+    row (not urgent): the most moves each had queued, and r0's arrival (sim s)."""
+    with FleetService(FleetConfig(world=str(world(tmp, f"rows{urgent_window}", (4.8, 1.8))), seed=0,
+                                  physics_hz=20.0, control_hz=10.0)) as svc:
+        tm = enable_traffic(svc, cell=1.0, urgent_s=5.0, urgent_cells=None, highway=1.0, lane_cost=1.0,
+                            urgent_window=urgent_window)
+        for name, (x, y) in {"r0": (-3.5, ROW), "r2": (-3.5, -ROW)}.items():
+            svc.spawn_robot(name, Pose2D(x, y, 0.0))
+            tm.add(name)
+        truth = Truth(svc, tm)
+        tm.go("r0", 3.5, ROW)
+        tm.go("r2", 3.5, -ROW)
+        tm.best_at[0] = svc.world.time - 6.0  # 6 s without progress: urgent at the next plan
+        seen = {"r0": 0.0, "r2": 0.0, "arrived": math.inf}
+        while svc.world.time < 40.0 and math.isinf(seen["arrived"]):
+            svc.advance(0.1)
+            for i, name in enumerate(("r0", "r2")):
+                seen[name] = max(seen[name], len(tm.sched.queue[i]))
+            if tm.a[0] == tm.goal[0] and tm.a[0] == tm.b[0]:
+                seen["arrived"] = svc.world.time
+        assert truth.pair > 0.0 and truth.wall > 0.0, (truth.pair, truth.wall)
+        return seen
+
+
+@pytest.mark.parametrize("urgent_window", [1, 2, 3])
+def test_an_urgent_robot_plans_urgent_window_moves_ahead_and_the_others_window(tmp_path: Path,
+                                                                               urgent_window: int) -> None:
+    seen = drive_urgent(tmp_path, urgent_window)
+    assert seen["r0"] == urgent_window  # planned on while it drives (an empty row: nothing holds it)
+    assert seen["r2"] == 1  # not urgent: `window`
+    assert seen["arrived"] < 40.0
+
+
+@pytest.mark.parametrize("urgent_window", [2, 3])
+def test_urgent_look_ahead_keeps_a_lifelong_jam_safe_and_live(tmp_path: Path, urgent_window: int) -> None:
+    """Eight robots with lifelong random goals in a shop of shelves, urgent after 1 s without progress (most of
+    them are urgent most of the time, each planning ahead): no collision, the cells entered in the planned order
+    (the schedule stays acyclic), every goal reached."""
+    shelves = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
+    rng = np.random.default_rng(5)
+    with FleetService(FleetConfig(world=str(world(tmp_path, "shop", (4.8, 3.8), shelves)), seed=0, physics_hz=20.0,
+                                  control_hz=10.0)) as svc:
+        tm = enable_traffic(svc, cell=1.0, speed=0.7, stall_s=5.0, urgent_s=1.0, urgent_window=urgent_window,
+                            record=True)
+        cells = rng.choice(len(tm.grid), 8, replace=False).tolist()
+        for k, c in enumerate(cells):
+            svc.spawn_robot(f"w{k}", Pose2D(float(tm.grid.xy[c][0]), float(tm.grid.xy[c][1]), 0.0))
+            tm.add(f"w{k}")
+        truth = Truth(svc, tm)
+        left = {f"w{k}": 3 for k in range(8)}
+        most_queued = 0  # by an urgent robot
+
+        def next_goal(name: str, now: float = 0.0) -> None:
+            if left[name]:
+                left[name] -= 1
+                taken = set(tm.goal.tolist()) | {int(tm.a[tm.names.index(name)])}  # one robot per goal cell
+                tm.go(name, *tm.grid.xy[int(rng.choice([c for c in range(len(tm.grid)) if c not in taken]))])
+
+        tm.on_reached = next_goal
+        for name in left:
+            next_goal(name)
+        while svc.world.time < 400.0 and (any(left.values()) or tm.active_count()):
+            svc.advance(0.5)
+            most_queued = max(most_queued, int(tm.sched.queued[np.isfinite(tm.urgent_at)].max(initial=0)))
+        assert not any(left.values()) and tm.active_count() == 0, tm.describe()
+        assert tm.stats["reached"] == 24 and most_queued >= urgent_window, most_queued
+        assert truth.pair > 0.0 and truth.wall > 0.0, (truth.pair, truth.wall)
+        planned: dict[int, list[str]] = {}
+        for cell, i in tm.sched.planned_entries:
+            planned.setdefault(cell, []).append(tm.names[i])
+        for cell, entered in truth.entries.items():
+            assert entered == planned[cell], (cell, entered, planned[cell])
+
+
+def test_urgent_window_is_checked(tmp_path: Path) -> None:
+    with FleetService(FleetConfig(world=str(world(tmp_path, "rows", (4.8, 1.8))), seed=0, physics_hz=20.0,
+                                  control_hz=10.0)) as svc, pytest.raises(FleetError, match="urgent_window"):
+        TrafficManager(svc, urgent_window=0)

@@ -201,6 +201,9 @@ def main() -> None:
     ap.add_argument("--urgent-cells", type=int, default=3,
                     help="traffic layer: urgency ends once a robot is this many cells closer than when it became "
                          "urgent (it may become urgent again); default 3")
+    ap.add_argument("--keep-clear", nargs="*", choices=("off", "on"), default=["off"],
+                    help="traffic layer: robots enter a crossing of aisles only with a way out (fleet/traffic/"
+                         "crossings.py), one run each")
     ap.add_argument("--urgent-window", type=int, default=1,
                     help="traffic layer: moves an urgent robot may have planned ahead (default 1: --window)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
@@ -230,13 +233,13 @@ def main() -> None:
                          "waits_over_20_s", "waits_over_25_s", "waits_over_30_s")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    for prio, rule, wd, adm, ow in itertools.product(a.priority, a.rule, a.withdraw, a.admission,
-                                                                     a.one_way):
+                    for prio, rule, wd, adm, ow, kc in itertools.product(a.priority, a.rule, a.withdraw, a.admission,
+                                                                         a.one_way, a.keep_clear):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, "urgent_window": a.urgent_window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
                                         withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
-                                        one_way=ow == "on",
+                                        one_way=ow == "on", keep_clear=kc == "on",
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

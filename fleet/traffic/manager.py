@@ -21,12 +21,11 @@ edge lies on a cycle, but robots can be pushed back and forth for a long time, a
 (pibt.py, docs/fleet.md). Against long waits: lanes (grid.py, lanes.py: moves against a row's or column's direction
 cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot without progress for
 `urgent_s` outranks all that are not urgent until it is `urgent_cells` closer; among the urgent, the longest without
-progress first; an urgent robot plans `urgent_window` moves ahead, priority.lookahead), yielding aside (pibt.py: a
-pushed robot prefers a node off its pusher's way), dispatch admission (`admission`, admission.py: new goals held
-while the layer is congested; `bound`, the default, admission_wait.py: held robots wait on parking cells off the
-main flow, parking.py) and, optionally, congestion-aware routing (congestion.py). Withdrawing planned moves not yet
-started (`withdraw`, withdraw.py): by default (`crowded`) all of them every `flush_s` while admission holds goals,
-so in a crowd PIBT re-plans from the committed cells.
+progress first; an urgent robot plans `urgent_window` moves ahead, priority.lookahead), crossings kept clear
+(`keep_clear`, crossings.py), yielding aside (pibt.py), dispatch admission (`admission`, admission.py: new goals
+held while the layer is congested; `bound`, the default, admission_wait.py: held robots wait on parking cells off
+the main flow, parking.py) and, optionally, congestion-aware routing (congestion.py). Withdrawing planned moves not
+yet started (`withdraw`, withdraw.py): by default (`crowded`) all every `flush_s` while admission holds goals.
 """
 
 from __future__ import annotations
@@ -40,11 +39,12 @@ import numpy as np
 
 from fleet.traffic.admission import PARKED, layer_admission
 from fleet.traffic.congestion import CongestionFields
+from fleet.traffic.crossings import crossing_cells
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import drive
 from fleet.traffic.parking import Parking
 from fleet.traffic.pibt import PIBT
-from fleet.traffic.priority import lookahead, priorities, urgent_room
+from fleet.traffic.priority import URGENT, lookahead, priorities, urgent_room
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
 from fleet.traffic.stalls import close_stall, open_stalls
@@ -70,7 +70,8 @@ class TrafficManager:
                  congestion: float = 0.0, urgent_rank: Literal["since_progress", "since_urgent"] = "since_progress",
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
-                 one_way: bool = True, record: bool = False, flush_s: float = 1.0, urgent_window: int = 1) -> None:
+                 one_way: bool = True, record: bool = False, flush_s: float = 1.0, urgent_window: int = 1,
+                 keep_clear: bool = False) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -86,6 +87,9 @@ class TrafficManager:
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.pibt.yield_aside, self.pibt.push_frozen = yield_aside, push_frozen
         self.pibt.traps = {v for chain in self.grid.one_way for v in chain}
+        clear = keep_clear and urgent_s is not None  # a robot kept out must become urgent to enter (crossings.py)
+        self.pibt.box = crossing_cells(self.grid.ij, self.grid.neighbours) if clear else set()
+        self.pibt.box_exempt = URGENT
         self.sched = Schedule(len(self.grid), record)
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
         self.peak = speed / cell  # cells/s
@@ -380,6 +384,7 @@ class TrafficManager:
         if self.congestion is not None:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
+        self.pibt.box_for = self.pending  # idle robots never become urgent: the crossing rule is for robots on a task
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

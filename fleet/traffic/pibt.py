@@ -20,6 +20,8 @@ Changes for real robots (fleet/traffic/manager.py executes the steps asynchronou
 - `yield_aside`: a pushed agent, among nodes equally close to its goal, takes one its pusher does not need next
   (no closer to the pusher's goal than its own node), so an agent met head-on steps aside rather than
   retreating before its pusher node after node;
+- `box`: crossing cells (crossings.py). An agent planning its own move, on a task (`box_for`) and not urgent, enters
+  one from outside only with a way out towards its goal (do not block the box);
 - `traps`: the cells of one-way corridors. A pushed agent outside them is never pushed into one that does not bring
   it closer to its goal: it could only drive through, however long the corridor (on the warehouse one push into
   the one-lane cross row sent a robot 43 cells round, a 51 s wait); its pusher tries another node or waits.
@@ -45,6 +47,9 @@ class PIBT:
         self.root = 0.0  # priority of the agent whose push chain is being planned
         self.move_on = True  # a frozen agent pushed by a lower chain may only move on (no farther from its goal)
         self.traps: set[int] = set()  # one-way corridor cells: never pushed into one that leads away (module doc)
+        self.box: set[int] = set()  # crossing cells entered only with a way out (crossings.py)
+        self.box_exempt = np.inf  # agents of at least this priority enter crossings regardless (the urgent)
+        self.box_for: np.ndarray | None = None  # the agents the rule applies to (None: all; the layer: with a goal)
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
@@ -86,6 +91,9 @@ class PIBT:
             cands = [v for v in cands if dist[v] <= dist[c]]
         if pusher is not None and self.traps and c not in self.traps:
             cands = [v for v in cands if v not in self.traps or dist[v] < dist[c]]
+        if (pusher is None and self.box and c not in self.box and self.priority[i] < self.box_exempt
+                and (self.box_for is None or self.box_for[i])):
+            cands = [v for v in cands if v not in self.box or self._has_exit(i, v, dist)]
         straight = np.array([v != self.prefer[i] for v in cands])
         if pusher is not None and self.yield_aside:
             # Off the pusher's way: a node the pusher does not need next (no closer to its goal than i's node).
@@ -113,6 +121,18 @@ class PIBT:
             return True
         self.nxt[i] = c  # nowhere to go: wait (a pusher's claim on c is overridden, and it backtracks)
         self.reserved[c] = i
+        return False
+
+    def _has_exit(self, i: int, v: int, dist: np.ndarray) -> bool:
+        """Would i, in crossing cell v, have a way on: its goal, or a neighbour of v closer to its goal that nobody
+        has taken in this step and whose robot, if any, has already been planned out of it (crossings.py)?"""
+        if v == self.goals[i]:
+            return True
+        for u in self.neighbours[v]:
+            if dist[u] < dist[v] and u not in self.reserved:
+                k = self.occ.get(u)
+                if k is None or (self.nxt[k] >= 0 and self.nxt[k] != u):
+                    return True
         return False
 
     def _closes_loop(self, i: int, k: int) -> bool:

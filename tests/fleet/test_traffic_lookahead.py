@@ -52,17 +52,20 @@ def test_an_urgent_robot_plans_urgent_window_moves_ahead_and_the_others_window(t
     assert seen["arrived"] < 40.0
 
 
-@pytest.mark.parametrize("urgent_window", [2, 3])
-def test_urgent_look_ahead_keeps_a_lifelong_jam_safe_and_live(tmp_path: Path, urgent_window: int) -> None:
+@pytest.mark.parametrize(("urgent_window", "keep_clear"), [(2, False), (3, False), (1, True), (3, True)])
+def test_look_ahead_and_clear_crossings_keep_a_lifelong_jam_safe_and_live(tmp_path: Path, urgent_window: int,
+                                                                          keep_clear: bool) -> None:
     """Eight robots with lifelong random goals in a shop of shelves, urgent after 1 s without progress (most of
-    them are urgent most of the time, each planning ahead): no collision, the cells entered in the planned order
-    (the schedule stays acyclic), every goal reached."""
+    them are urgent most of the time, each planning ahead), optionally keeping crossings clear (crossings.py; the
+    shop's centre is one): no collision, the cells entered in the planned order (the schedule stays acyclic), every
+    goal reached."""
     shelves = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
     rng = np.random.default_rng(5)
     with FleetService(FleetConfig(world=str(world(tmp_path, "shop", (4.8, 3.8), shelves)), seed=0, physics_hz=20.0,
                                   control_hz=10.0)) as svc:
         tm = enable_traffic(svc, cell=1.0, speed=0.7, stall_s=5.0, urgent_s=1.0, urgent_window=urgent_window,
-                            record=True)
+                            keep_clear=keep_clear, record=True)
+        assert len(tm.pibt.box) == (4 if keep_clear else 0)
         cells = rng.choice(len(tm.grid), 8, replace=False).tolist()
         for k, c in enumerate(cells):
             svc.spawn_robot(f"w{k}", Pose2D(float(tm.grid.xy[c][0]), float(tm.grid.xy[c][1]), 0.0))

@@ -7,10 +7,11 @@ enter a crossing cell from outside only when some neighbour of that cell closer 
 being planned (pibt.py `_has_exit`); otherwise it waits outside, where it blocks only its own lane.
 Pushed robots must be able to give way and urgent robots keep the right of way, so both are exempt: a robot kept out
 (say by an idle robot standing in the crossing's exit, which only a robot inside would push) enters once it has
-waited `urgent_s`, so the rule needs aging and is off without it, and it binds only robots on a task (an idle robot
-going back to its cell never becomes urgent); PIBT's guarantee for the highest-priority robot holds once it is
-urgent. Opt-in (`keep_clear`, off by default): over 10 sim-minutes it cut the 100-robot warehouse's waits over 20 s
-by a quarter but made the longest 300-robot ones longer (docs/benchmarks-fleet.md, thirteenth landing)."""
+waited `urgent_s`, so the rule needs aging (settings.py rejects it without), and it binds only robots on a task
+(an idle robot going back to its cell never becomes urgent); PIBT's guarantee for the highest-priority robot holds
+once it is urgent. Opt-in (`keep_clear`, off by default): over 10 sim-minutes it cut the 100-robot warehouse's
+waits over 20 s by a quarter but made the longest 300-robot ones longer (docs/benchmarks-fleet.md, thirteenth
+landing)."""
 
 from __future__ import annotations
 

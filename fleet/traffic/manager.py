@@ -79,7 +79,7 @@ class TrafficManager:
         check_settings(cell=cell, gap=self.gap, radius=self.radius, priority=priority, window=window,
                        urgent_s=urgent_s, urgent_rank=urgent_rank, highway=highway, congestion=congestion,
                        withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells,
-                       urgent_window=urgent_window)
+                       urgent_window=urgent_window, keep_clear=keep_clear)
         self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
         self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
@@ -87,9 +87,8 @@ class TrafficManager:
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
         self.pibt.yield_aside, self.pibt.push_frozen = yield_aside, push_frozen
         self.pibt.traps = {v for chain in self.grid.one_way for v in chain}
-        clear = keep_clear and urgent_s is not None  # a robot kept out must become urgent to enter (crossings.py)
-        self.pibt.box = crossing_cells(self.grid.ij, self.grid.neighbours) if clear else set()
-        self.pibt.box_exempt = URGENT
+        self.pibt.box = crossing_cells(self.grid.ij, self.grid.neighbours) if keep_clear else set()
+        self.pibt.box_exempt = URGENT  # a robot kept out of a crossing enters once urgent (crossings.py)
         self.sched = Schedule(len(self.grid), record)
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
         self.peak = speed / cell  # cells/s

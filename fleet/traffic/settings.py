@@ -15,7 +15,8 @@ WITHDRAW = ("off", "loops", "ahead", "both", "flush", "crowded")  # unstarted mo
 
 def check_settings(*, cell: float, gap: float, radius: float, priority: str, window: int, urgent_s: float | None,
                    urgent_rank: str, highway: float, congestion: float, withdraw: str, flush_s: float,
-                   admission: str, urgent_cells: int | None = None, urgent_window: int = 1) -> None:
+                   admission: str, urgent_cells: int | None = None, urgent_window: int = 1,
+                   keep_clear: bool = False) -> None:
     """Raise INVALID_ARGUMENT for the first setting out of its range (`gap`: the cell a robot needs, m)."""
     if gap > cell:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
@@ -40,6 +41,9 @@ def check_settings(*, cell: float, gap: float, radius: float, priority: str, win
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic flush_s must be > 0 s, got {flush_s}")
     if admission not in ADMISSION:
         raise unknown_name("traffic admission", admission, list(ADMISSION), ErrorCode.INVALID_ARGUMENT)
+    if keep_clear and urgent_s is None:
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, "traffic keep_clear needs aging: a robot kept out of a crossing "
+                         "enters once urgent", "set urgent_s (default 10 s) or keep_clear false")
     if urgent_cells is not None and urgent_cells < 1:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_cells must be ≥ 1 cell (or None: urgent until "
                          f"the goal), got {urgent_cells}")

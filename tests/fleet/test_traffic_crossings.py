@@ -4,10 +4,16 @@ unless it is urgent."""
 
 from __future__ import annotations
 
-import numpy as np
+from pathlib import Path
 
-from fleet.traffic import PIBT
+import numpy as np
+import pytest
+
+from fleet import FleetConfig, FleetService
+from fleet.traffic import PIBT, TrafficManager
 from fleet.traffic.crossings import crossing_cells
+from sim.errors import FleetError
+from tests.fleet.test_traffic_async import world
 from tests.fleet.test_traffic_jam import JUNCTIONS, grid
 
 URGENT = 1e9
@@ -65,3 +71,9 @@ def test_it_enters_once_the_exit_is_planned_free_or_when_urgent() -> None:
     assert plan(pibt, node, held)["a"] == (4, 4)
     # a robot whose goal is the crossing cell itself needs no way out
     assert plan(pibt, node, {"a": ((3, 4), (4, 4), 5.0), "b": ((5, 4), (5, 4), 0.0)})["a"] == (4, 4)
+
+
+def test_keep_clear_without_aging_is_rejected(tmp_path: Path) -> None:
+    with FleetService(FleetConfig(world=str(world(tmp_path, "room", (2.8, 1.8))), seed=0, physics_hz=20.0,
+                                  control_hz=10.0)) as svc, pytest.raises(FleetError, match="keep_clear needs aging"):
+        TrafficManager(svc, keep_clear=True, urgent_s=None)

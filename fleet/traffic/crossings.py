@@ -7,15 +7,19 @@ enter a crossing cell from outside only when some neighbour of that cell closer 
 being planned (pibt.py `_has_exit`); otherwise it waits outside, where it blocks only its own lane.
 Pushed robots must be able to give way and urgent robots keep the right of way, so both are exempt: a robot kept out
 (say by an idle robot standing in the crossing's exit, which only a robot inside would push) enters once it has
-waited `urgent_s`, so the rule needs aging (settings.py rejects it without), and it binds only robots on a task
-(an idle robot going back to its cell never becomes urgent); PIBT's guarantee for the highest-priority robot holds
-once it is urgent. Opt-in (`keep_clear`, off by default): over 10 sim-minutes it cut the 100-robot warehouse's
-waits over 20 s by a quarter but made the longest 300-robot ones longer (docs/benchmarks-fleet.md, thirteenth
-landing)."""
+waited `urgent_s`, so the rule needs aging (settings.py rejects it without), and it binds only robots that will
+become urgent if kept out (`bound_robots`); PIBT's guarantee for the highest-priority robot holds once it is
+urgent. Opt-in (`keep_clear`, off by default): over 10 sim-minutes it cut the 100-robot warehouse's waits over
+25 s by two thirds but made the longest 300-robot ones longer (docs/benchmarks-fleet.md, thirteenth landing)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from fleet.traffic.manager import TrafficManager
 
 
 def crossing_cells(ij: np.ndarray, neighbours: list[list[int]]) -> set[int]:
@@ -27,3 +31,14 @@ def crossing_cells(ij: np.ndarray, neighbours: list[list[int]]) -> set[int]:
         if len(set(neighbours[v])) == 4 and any((i + dx, j + dy) not in free for dx in (-1, 1) for dy in (-1, 1)):
             out.add(v)
     return out
+
+
+def bound_robots(tm: TrafficManager) -> np.ndarray:
+    """The robots the rule binds: those with a goal, and those held by admission on their way to a parking cell
+    (admitted in turn, they get a goal). Not idle robots going back to their cells: they never become urgent, so one
+    kept out would stay out (three of them shuffled for ever beside a crossing in a small test); binding the held
+    robots too is what gives the rule its effect at 100 robots (docs/benchmarks-fleet.md, thirteenth landing)."""
+    bound = tm.pending.copy()
+    if tm.admission is not None and tm.admission.queue:
+        bound[[tm._idx[h.robot] for h in tm.admission.queue]] = True
+    return bound

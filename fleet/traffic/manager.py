@@ -39,7 +39,7 @@ import numpy as np
 
 from fleet.traffic.admission import PARKED, layer_admission
 from fleet.traffic.congestion import CongestionFields
-from fleet.traffic.crossings import crossing_cells
+from fleet.traffic.crossings import bound_robots, crossing_cells
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import drive
 from fleet.traffic.parking import Parking
@@ -383,7 +383,7 @@ class TrafficManager:
         if self.congestion is not None:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
-        self.pibt.box_for = self.pending  # idle robots never become urgent: the crossing rule is for robots on a task
+        self.pibt.box_for = bound_robots(self)
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

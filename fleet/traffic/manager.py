@@ -82,6 +82,7 @@ class TrafficManager:
                        urgent_window=urgent_window, keep_clear=keep_clear)
         self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
         self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
+        self.keep_clear = keep_clear
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -383,7 +384,7 @@ class TrafficManager:
         if self.congestion is not None:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
-        self.pibt.box_for = bound_robots(self)
+        self.pibt.box_for = bound_robots(self) if self.keep_clear else None  # no per-step work when it is off
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

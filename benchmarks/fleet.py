@@ -201,9 +201,11 @@ def main() -> None:
     ap.add_argument("--urgent-cells", type=int, default=3,
                     help="traffic layer: urgency ends once a robot is this many cells closer than when it became "
                          "urgent (it may become urgent again); default 3")
-    ap.add_argument("--keep-clear", nargs="*", choices=("off", "on"), default=["off"],
-                    help="traffic layer: robots enter a crossing of aisles only with a way out (fleet/traffic/"
-                         "crossings.py), one run each")
+    ap.add_argument("--keep-clear", nargs="*", choices=("off", "on"), default=["on"],
+                    help="traffic layer: robots enter a crossing of aisles only with a way out, or after "
+                         "--keep-clear-s at rest (fleet/traffic/crossings.py; default on), one run each")
+    ap.add_argument("--keep-clear-s", type=float, default=4.0,
+                    help="traffic layer: a robot kept out of a crossing this long at rest enters anyway (default 4)")
     ap.add_argument("--urgent-window", type=int, default=1,
                     help="traffic layer: moves an urgent robot may have planned ahead (default 1: --window)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
@@ -239,7 +241,7 @@ def main() -> None:
                                         **{"window": a.window, "urgent_window": a.urgent_window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
                                         withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
-                                        one_way=ow == "on", keep_clear=kc == "on",
+                                        one_way=ow == "on", keep_clear=kc == "on", keep_clear_s=a.keep_clear_s,
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

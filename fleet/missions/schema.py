@@ -114,10 +114,12 @@ class TrafficSection(StrictModel):
     urgent_window: int = Field(1, ge=1, le=16, description="moves an urgent robot may have planned ahead (1: "
                                "window; 2 shortens the 100-robot warehouse's long waits and lengthens the 300-robot "
                                "ones, docs/benchmarks-fleet.md)")
-    keep_clear: bool = Field(False, description="a robot with a goal (or parking), not pushed, not urgent, enters "
-                             "a crossing of aisles only with a way out towards its goal (do not block the box; "
-                             "shortens the 100-robot warehouse's long waits, not the 300-robot ones, "
-                             "docs/benchmarks-fleet.md)")
+    keep_clear: bool = Field(True, description="a robot with a goal (or parking), not pushed, not urgent, enters "
+                             "a crossing of aisles only with a way out towards its goal, or once it has waited "
+                             "keep_clear_s at rest (do not block the box; shortens the warehouse's long waits at 100 "
+                             "and 300 robots, docs/benchmarks-fleet.md)")
+    keep_clear_s: float = Field(4.0, gt=0, le=60, description="a robot kept out of a crossing this long at rest "
+                                "enters anyway, s")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

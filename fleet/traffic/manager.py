@@ -71,7 +71,7 @@ class TrafficManager:
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
                  one_way: bool = True, record: bool = False, flush_s: float = 1.0, urgent_window: int = 1,
-                 keep_clear: bool = False) -> None:
+                 keep_clear: bool = True, keep_clear_s: float = 4.0) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -79,10 +79,10 @@ class TrafficManager:
         check_settings(cell=cell, gap=self.gap, radius=self.radius, priority=priority, window=window,
                        urgent_s=urgent_s, urgent_rank=urgent_rank, highway=highway, congestion=congestion,
                        withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells,
-                       urgent_window=urgent_window, keep_clear=keep_clear)
+                       urgent_window=urgent_window, keep_clear_s=keep_clear_s)
         self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
         self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
-        self.keep_clear = keep_clear
+        self.keep_clear, self.keep_clear_s = keep_clear, keep_clear_s  # crossings.py
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -107,7 +107,7 @@ class TrafficManager:
         self._idx: dict[str, int] = {}
         ints, floats = ("a", "b", "claim", "seg_step", "claim_step", "goal"), ("s", "sd", "sign", "since",
                                                                             "best", "best_at", "hold", "scale",
-                                                                            "urgent_at", "urgent_d")
+                                                                            "urgent_at", "urgent_d", "rest_at")
         for k in ints:
             setattr(self, k, np.zeros(0, np.int64))
         for k in floats:
@@ -128,6 +128,7 @@ class TrafficManager:
         self.scale: np.ndarray  # per-robot speed factor
         self.urgent_at: np.ndarray  # sim time a robot became urgent (waited urgent_s), +inf when it is not
         self.urgent_d: np.ndarray  # its best distance to goal then (cells)
+        self.rest_at: np.ndarray  # sim time it last came to rest (crossings.bound_robots)
         self.released = np.zeros(0, bool)
         self.pending = np.zeros(0, bool)  # a goal given and not reached yet
         self._tie = np.zeros(0)
@@ -154,7 +155,7 @@ class TrafficManager:
         now = w.time
         row = {"a": node, "b": node, "claim": -1, "seg_step": BIG, "claim_step": BIG, "goal": node, "s": 0.0,
                "sd": 0.0, "sign": 1.0, "since": now, "best": 0.0, "best_at": now, "hold": -math.inf, "scale": 1.0,
-               "urgent_at": math.inf, "urgent_d": 0.0,
+               "urgent_at": math.inf, "urgent_d": 0.0, "rest_at": -math.inf,  # at rest long since
                "released": True, "pending": False,
                "_tie": np.random.default_rng(len(self.names)).random() * 1e-3}
         for k, v in row.items():
@@ -248,7 +249,7 @@ class TrafficManager:
         self.names.pop(i)
         self._idx = {n: k for k, n in enumerate(self.names)}
         for k in ("a", "b", "claim", "seg_step", "claim_step", "goal", "s", "sd", "sign", "since", "best",
-                  "best_at", "hold", "scale", "urgent_at", "urgent_d", "released", "pending", "_tie"):
+                  "best_at", "hold", "scale", "urgent_at", "urgent_d", "rest_at", "released", "pending", "_tie"):
             setattr(self, k, np.delete(getattr(self, k), i))
 
     def commands(self, now: float) -> dict[str, tuple[float, float]]:
@@ -361,6 +362,7 @@ class TrafficManager:
             self.s[i] = self.sd[i] = 0.0
             self.seg_step[i] = BIG
             self.released[i] = True
+            self.rest_at[i] = now
         self._progress(i, now)
 
     def _progress(self, i: int, now: float) -> None:
@@ -384,7 +386,7 @@ class TrafficManager:
         if self.congestion is not None:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
-        self.pibt.box_for = bound_robots(self) if self.keep_clear else None  # no per-step work when it is off
+        self.pibt.box_for = bound_robots(self, now) if self.keep_clear else None  # no per-step work when it is off
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

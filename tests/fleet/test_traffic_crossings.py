@@ -1,19 +1,21 @@
 """Crossings kept clear (fleet/traffic/crossings.py, pibt.py `box`): the crossing cells of a small warehouse in closed
 form, and PIBT's rule on one of them: a robot planning its own move enters only with a way out towards its goal,
-unless it is urgent."""
+unless it is urgent or has waited `keep_clear_s` at rest (the layer, aging off)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from fleet import FleetConfig, FleetService
-from fleet.traffic import PIBT, TrafficManager
+from fleet.traffic import PIBT, TrafficManager, enable_traffic
 from fleet.traffic.crossings import crossing_cells
+from sim import Pose2D
 from sim.errors import FleetError
-from tests.fleet.test_traffic_async import world
+from tests.fleet.test_traffic_async import Truth, world
 from tests.fleet.test_traffic_jam import JUNCTIONS, grid
 
 URGENT = 1e9
@@ -73,7 +75,48 @@ def test_it_enters_once_the_exit_is_planned_free_or_when_urgent() -> None:
     assert plan(pibt, node, {"a": ((3, 4), (4, 4), 5.0), "b": ((5, 4), (5, 4), 0.0)})["a"] == (4, 4)
 
 
-def test_keep_clear_without_aging_is_rejected(tmp_path: Path) -> None:
+SHOP = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
+
+
+def wait_outside(tmp: Path, keep_clear: bool) -> tuple[float, float, float]:
+    """a drives east along the shop's row y = 0.5 through its central crossing to (3.5, 0.5); b stands idle in the
+    crossing's second cell (0.5, 0.5), so a has no way out of the first one. Aging off: only keep_clear_s lets a
+    in. Returns when a came to rest before the crossing, when it entered it, when it reached its goal (sim s)."""
+    with FleetService(FleetConfig(world=str(world(tmp, f"shop{keep_clear}", (4.8, 3.8), SHOP)), seed=0,
+                                  physics_hz=20.0, control_hz=10.0)) as svc:
+        tm = enable_traffic(svc, cell=1.0, urgent_s=None, highway=1.0, lane_cost=1.0, keep_clear=keep_clear,
+                            keep_clear_s=3.0)
+        first, second = tm.grid.node_at(-0.5, 0.5), tm.grid.node_at(0.5, 0.5)
+        assert {first, second} <= tm.pibt.box or not keep_clear
+        for name, (x, y) in {"a": (-3.5, 0.5), "b": (0.5, 0.5)}.items():
+            svc.spawn_robot(name, Pose2D(x, y, 0.0))
+            tm.add(name)
+        truth = Truth(svc, tm)
+        tm.go("a", 3.5, 0.5)
+        before, rest, entered, arrived = tm.grid.node_at(-1.5, 0.5), math.inf, math.inf, math.inf
+        while svc.world.time < 30.0 and math.isinf(arrived):
+            svc.advance(0.1)
+            if tm.a[0] == before and tm.b[0] == before and math.isinf(rest):
+                rest = svc.world.time
+            if tm.b[0] == first and math.isinf(entered):
+                entered = svc.world.time
+            if not tm.pending[0]:
+                arrived = svc.world.time
+        assert truth.pair > 0.0 and truth.wall > 0.0, (truth.pair, truth.wall)
+        return rest, entered, arrived
+
+
+def test_a_robot_kept_out_enters_after_keep_clear_s_at_rest_without_aging(tmp_path: Path) -> None:
+    rest, entered, arrived = wait_outside(tmp_path, keep_clear=True)
+    assert 3.0 <= entered - rest <= 4.0, (rest, entered)  # kept out 3 s at rest (the setting), then in
+    assert arrived < 30.0  # and on, pushing b out of its way
+    rest, entered, arrived = wait_outside(tmp_path, keep_clear=False)
+    assert math.isinf(rest) and arrived < 30.0  # without the rule it drives on into the crossing without a stop
+
+
+def test_keep_clear_s_is_checked(tmp_path: Path) -> None:
     with FleetService(FleetConfig(world=str(world(tmp_path, "room", (2.8, 1.8))), seed=0, physics_hz=20.0,
-                                  control_hz=10.0)) as svc, pytest.raises(FleetError, match="keep_clear needs aging"):
-        TrafficManager(svc, keep_clear=True, urgent_s=None)
+                                  control_hz=10.0)) as svc:
+        for bad in (0.0, -1.0, math.inf, math.nan):
+            with pytest.raises(FleetError, match="keep_clear_s"):
+                TrafficManager(svc, keep_clear_s=bad)

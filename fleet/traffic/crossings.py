@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fleet.traffic.schedule import BIG
+
 if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
 
@@ -42,5 +44,6 @@ def bound_robots(tm: TrafficManager, now: float) -> np.ndarray:
     bound = tm.pending.copy()
     if tm.admission is not None and tm.admission.queue:
         bound[[tm._idx[h.robot] for h in tm.admission.queue]] = True
-    waited = (tm.a == tm.b) & (tm.sched.queued == 0) & (now - tm.rest_at >= tm.keep_clear_s)
+    nothing_queued = tm.sched.head_step >= BIG  # kept by the schedule (its `queued` would walk every queue again)
+    waited = (tm.a == tm.b) & nothing_queued & (now - tm.rest_at >= tm.keep_clear_s)
     return bound & ~waited

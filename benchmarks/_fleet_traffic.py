@@ -43,7 +43,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
                 withdraw: str = "crowded", flush_s: float = 1.0, admission: str = "bound",
                 urgent_cells: int | None = 3, one_way: bool = True, urgent_window: int = 1,
-                keep_clear: bool = True, keep_clear_s: float = 4.0) -> dict[str, Any]:
+                keep_clear: bool = True, keep_clear_s: float = 4.0, held_clear: bool = True) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -53,7 +53,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                              push_frozen=push_frozen, congestion=congestion,
                              urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s,
                              admission=admission, urgent_cells=urgent_cells, one_way=one_way,
-                             urgent_window=urgent_window, keep_clear=keep_clear, keep_clear_s=keep_clear_s)
+                             urgent_window=urgent_window, keep_clear=keep_clear, keep_clear_s=keep_clear_s,
+                             held_clear=held_clear)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -136,7 +137,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
                 f"window {window} (urgent {urgent_window}), withdraw {withdraw}, admission {admission}, "
                 f"urgent_cells {urgent_cells}, "
-                f"one_way {one_way}, keep_clear {keep_clear} ({keep_clear_s:g} s)"
+                f"one_way {one_way}, keep_clear {keep_clear} ({keep_clear_s:g} s), held_clear {held_clear}"
                 f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,

@@ -206,6 +206,9 @@ def main() -> None:
                          "--keep-clear-s at rest (fleet/traffic/crossings.py; default on), one run each")
     ap.add_argument("--keep-clear-s", type=float, default=4.0,
                     help="traffic layer: a robot kept out of a crossing this long at rest enters anyway (default 4)")
+    ap.add_argument("--held-clear", nargs="*", choices=("off", "on"), default=["on"],
+                    help="traffic layer: robots whose goals are held plan no move of their own into the way of a "
+                         "robot in a wait (fleet/traffic/admission_wait.py; default on), one run each")
     ap.add_argument("--urgent-window", type=int, default=1,
                     help="traffic layer: moves an urgent robot may have planned ahead (default 1: --window)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
@@ -235,13 +238,15 @@ def main() -> None:
                          "waits_over_20_s", "waits_over_25_s", "waits_over_30_s")
                 print(" | ".join(tcols))
                 for lid in a.traffic_lidar:
-                    for prio, rule, wd, adm, ow, kc in itertools.product(a.priority, a.rule, a.withdraw, a.admission,
-                                                                         a.one_way, a.keep_clear):
+                    for prio, rule, wd, adm, ow, kc, hc in itertools.product(a.priority, a.rule, a.withdraw,
+                                                                             a.admission, a.one_way, a.keep_clear,
+                                                                             a.held_clear):
                         r = run_traffic(n, minutes, a.seed, models[lid], priority=prio,
                                         **{"window": a.window, "urgent_window": a.urgent_window, **RULES[rule]},
                                         congestion=a.congestion if rule == "cong" else 0.0,
                                         withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
                                         one_way=ow == "on", keep_clear=kc == "on", keep_clear_s=a.keep_clear_s,
+                                        held_clear=hc == "on",
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

@@ -120,6 +120,9 @@ class TrafficSection(StrictModel):
                              "and 300 robots, docs/benchmarks-fleet.md)")
     keep_clear_s: float = Field(4.0, gt=0, le=60, description="a robot kept out of a crossing this long at rest "
                                 "enters anyway, s")
+    held_clear: bool = Field(True, description="with admission bound: a robot whose goal is held plans no move of "
+                             "its own into the next cells of the way of a robot in a wait (it can still be pushed "
+                             "there; fewer long waits on the 300-robot warehouse, docs/benchmarks-fleet.md)")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

@@ -24,8 +24,9 @@ cost `highway` times more; one-lane through corridors are one-way, `one_way`), a
 progress first; an urgent robot plans `urgent_window` moves ahead, priority.lookahead), crossings kept clear
 (`keep_clear`, crossings.py), yielding aside (pibt.py), dispatch admission (`admission`, admission.py: new goals
 held while the layer is congested; `bound`, the default, admission_wait.py: held robots wait on parking cells off
-the main flow, parking.py) and, optionally, congestion-aware routing (congestion.py). Withdrawing planned moves not
-yet started (`withdraw`, withdraw.py): by default (`crowded`) all every `flush_s` while admission holds goals.
+the main flow, parking.py, and keep off the ways of robots in a wait, `held_clear`) and, optionally,
+congestion-aware routing (congestion.py). Withdrawing planned moves not yet started (`withdraw`, withdraw.py): by
+default (`crowded`) all every `flush_s` while admission holds goals.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from fleet.traffic.admission import PARKED, layer_admission
+from fleet.traffic.admission_wait import held_off_ways
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.crossings import bound_robots, crossing_cells
 from fleet.traffic.grid import TrafficGrid
@@ -71,7 +73,7 @@ class TrafficManager:
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
                  one_way: bool = True, record: bool = False, flush_s: float = 1.0, urgent_window: int = 1,
-                 keep_clear: bool = True, keep_clear_s: float = 4.0) -> None:
+                 keep_clear: bool = True, keep_clear_s: float = 4.0, held_clear: bool = True) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -83,6 +85,7 @@ class TrafficManager:
         self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
         self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
         self.keep_clear, self.keep_clear_s = keep_clear, keep_clear_s  # crossings.py
+        self.held_clear = held_clear  # held robots keep off the ways of robots in a wait (admission_wait.py)
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -387,6 +390,7 @@ class TrafficManager:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
         self.pibt.box_for = bound_robots(self, now) if self.keep_clear else None  # no per-step work when it is off
+        self.pibt.keep_off, self.pibt.hot = held_off_ways(self) if self.held_clear else (None, set())
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

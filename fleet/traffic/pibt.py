@@ -22,6 +22,9 @@ Changes for real robots (fleet/traffic/manager.py executes the steps asynchronou
   retreating before its pusher node after node;
 - `box`: crossing cells (crossings.py). An agent planning its own move, on a task (`box_for`) and not urgent, enters
   one from outside only with a way out towards its goal (do not block the box);
+- `hot` / `keep_off`: an agent marked in `keep_off` (the layer: a robot whose goal admission holds, on its way to
+  park) plans no move of its own into a `hot` cell (the next cells of the ways of robots in a wait,
+  admission_wait.py); it can still be pushed there, and it may leave one;
 - `traps`: the cells of one-way corridors. A pushed agent outside them is never pushed into one that does not bring
   it closer to its goal: it could only drive through, however long the corridor (on the warehouse one push into
   the one-lane cross row sent a robot 43 cells round, a 51 s wait); its pusher tries another node or waits.
@@ -50,6 +53,8 @@ class PIBT:
         self.box: set[int] = set()  # crossing cells entered only with a way out (crossings.py)
         self.box_exempt = np.inf  # agents of at least this priority enter crossings regardless (the urgent)
         self.box_for: np.ndarray | None = None  # the agents the rule applies to (None: all; the layer: with a goal)
+        self.hot: set[int] = set()  # cells `keep_off` agents do not enter on a move of their own (module doc)
+        self.keep_off: np.ndarray | None = None
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
@@ -94,6 +99,8 @@ class PIBT:
         if (pusher is None and self.box and c not in self.box and self.priority[i] < self.box_exempt
                 and (self.box_for is None or self.box_for[i])):
             cands = [v for v in cands if v not in self.box or self._has_exit(i, v, dist)]
+        if pusher is None and self.hot and self.keep_off is not None and self.keep_off[i]:
+            cands = [v for v in cands if v == c or v not in self.hot]
         straight = np.array([v != self.prefer[i] for v in cands])
         if pusher is not None and self.yield_aside:
             # Off the pusher's way: a node the pusher does not need next (no closer to its goal than i's node).

@@ -31,6 +31,8 @@ from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
 
@@ -131,6 +133,16 @@ class Admission:
         self.queue.extendleft(reversed(kept))
         self.stats["admitted"] += len(out)
         return out
+
+
+def held_mask(tm: TrafficManager) -> np.ndarray:
+    """Per robot of the layer, whether admission holds its goal (all False with admission off or nothing held).
+    The layer computes it once per plan for the rules that treat held robots apart (priority.py, crossings.py,
+    admission_wait.py)."""
+    held = np.zeros(len(tm.names), bool)
+    if tm.admission is not None and tm.admission.queue:
+        held[[tm._idx[h.robot] for h in tm.admission.queue]] = True
+    return held
 
 
 def layer_admission(mode: str, stall_s: float, cells: int) -> Admission | None:

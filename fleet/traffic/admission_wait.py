@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from fleet.traffic.admission import Admission, Held
+from fleet.traffic.admission import Admission, Held, held_mask
 
 if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
@@ -121,12 +121,10 @@ def reach_cells(starve_s: float, peak: float, bound_s: float = WAIT_BOUND_S) -> 
     return max(1, math.ceil(peak * max(bound_s - starve_s, 0.0)))
 
 
-def held_off_ways(tm: TrafficManager) -> tuple[np.ndarray | None, set[int]]:
-    """The held robots (PIBT's `keep_off` mask) and the hot cells they keep off on their own moves (module doc);
-    (None, empty) when nothing is held or no robot starves."""
+def held_off_ways(tm: TrafficManager, held: np.ndarray | None = None) -> tuple[np.ndarray | None, set[int]]:
+    """The held robots (PIBT's `keep_off` mask; `held`: admission.held_mask, if the caller has it) and the hot cells
+    they keep off on their own moves (module doc); (None, empty) when nothing is held or no robot starves."""
     adm = tm.admission
     if not isinstance(adm, BoundAdmission) or not adm.hot or not adm.queue:
         return None, set()
-    held = np.zeros(len(tm.names), bool)
-    held[[tm._idx[h.robot] for h in adm.queue]] = True
-    return held, adm.hot
+    return (held_mask(tm) if held is None else held), adm.hot

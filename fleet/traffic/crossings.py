@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fleet.traffic.admission import held_mask
 from fleet.traffic.schedule import BIG
 
 if TYPE_CHECKING:
@@ -35,15 +36,13 @@ def crossing_cells(ij: np.ndarray, neighbours: list[list[int]]) -> set[int]:
     return out
 
 
-def bound_robots(tm: TrafficManager, now: float) -> np.ndarray:
+def bound_robots(tm: TrafficManager, now: float, held: np.ndarray | None = None) -> np.ndarray:
     """The robots the rule binds: those with a goal, and those held by admission on their way to a parking cell
     (admitted in turn, they get a goal), except those at rest with nothing queued for `keep_clear_s` or longer (kept
     out that long, they enter). Not idle robots going back to their cells: three of them shuffled for ever beside a
     crossing in a small test when bound; binding the held robots too is what gives the rule its effect at 100
-    robots (docs/benchmarks-fleet.md, thirteenth landing)."""
-    bound = tm.pending.copy()
-    if tm.admission is not None and tm.admission.queue:
-        bound[[tm._idx[h.robot] for h in tm.admission.queue]] = True
+    robots (docs/benchmarks-fleet.md, thirteenth landing). `held`: admission.held_mask, if the caller has it."""
+    bound = tm.pending | (held_mask(tm) if held is None else held)
     nothing_queued = tm.sched.head_step >= BIG  # kept by the schedule (its `queued` would walk every queue again)
     waited = (tm.a == tm.b) & nothing_queued & (now - tm.rest_at >= tm.keep_clear_s)
     return bound & ~waited

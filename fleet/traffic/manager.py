@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from fleet.traffic.admission import PARKED, layer_admission
+from fleet.traffic.admission import PARKED, held_mask, layer_admission
 from fleet.traffic.admission_wait import held_off_ways
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.crossings import bound_robots, crossing_cells
@@ -84,8 +84,7 @@ class TrafficManager:
                        urgent_window=urgent_window, keep_clear_s=keep_clear_s)
         self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
         self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
-        self.keep_clear, self.keep_clear_s = keep_clear, keep_clear_s  # crossings.py
-        self.held_clear = held_clear  # held robots keep off the ways of robots in a wait (admission_wait.py)
+        self.keep_clear, self.keep_clear_s, self.held_clear = keep_clear, keep_clear_s, held_clear  # module doc
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -385,12 +384,13 @@ class TrafficManager:
 
     def _plan(self, now: float) -> None:
         tail = self.sched.tail
-        priority = priorities(self, now)
+        held = held_mask(self)  # once per plan, for the rules that treat held robots apart
+        priority = priorities(self, now, held)
         if self.congestion is not None:
             self.congestion.refresh(now)
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
-        self.pibt.box_for = bound_robots(self, now) if self.keep_clear else None  # no per-step work when it is off
-        self.pibt.keep_off, self.pibt.hot = held_off_ways(self) if self.held_clear else (None, set())
+        self.pibt.box_for = bound_robots(self, now, held) if self.keep_clear else None  # no work when off
+        self.pibt.keep_off, self.pibt.hot = held_off_ways(self, held) if self.held_clear else (None, set())
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

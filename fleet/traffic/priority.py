@@ -7,18 +7,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fleet.traffic.admission import held_mask
+
 if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
 
 URGENT = 1e9  # s: added to an urgent robot's priority (above any goal age)
 
 
-def priorities(tm: TrafficManager, now: float) -> np.ndarray:
-    """PIBT's priority of every robot now (marks robots that have become urgent)."""
+def priorities(tm: TrafficManager, now: float, held: np.ndarray | None = None) -> np.ndarray:
+    """PIBT's priority of every robot now (marks robots that have become urgent). `held`: admission.held_mask, if
+    the caller has it already."""
     since = tm.best_at if tm.priority == "since_progress" else tm.since
     priority = (now - since) * (tm.goal != tm.sched.tail) + tm._tie
     if tm.parking is not None and tm.admission is not None and tm.admission.queue:
-        held = [tm._idx[h.robot] for h in tm.admission.queue]  # on the way to park: below every goal
+        held = held_mask(tm) if held is None else held  # on the way to park: below every goal
         priority[held] = tm._tie[held]
     if tm.urgent_s is not None:
         # Aging: a robot that has not come closer for urgent_s outranks every other robot until it reaches

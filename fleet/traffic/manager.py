@@ -7,7 +7,7 @@ control tick, whenever some robot with a goal has nothing queued; robots with `w
 no move of their own (bounded look-ahead, fresh plans for new goals) but can still be pushed — one more move
 appended — so the highest-priority robot is never held by a robot that merely has a move queued, and a follower
 extends its leader's plan (a frozen robot pushed by a lower-priority chain may only move on: pibt.py).
-Execution: each robot claims its next planned cell
+Execution (execution.py, motion.py): each robot claims its next planned cell
 as soon as the schedule lets it (first in the cell's FIFO, nobody in or entering it), turns to face it (or
 reverses into a cell behind), and drives there on a braking-limited profile that keeps `gap` from the robot
 leaving that cell, by ground truth (motion.py); a straight run continues through cell centres without
@@ -42,6 +42,7 @@ from fleet.traffic.admission import PARKED, held_mask, layer_admission
 from fleet.traffic.admission_wait import held_off_ways
 from fleet.traffic.congestion import CongestionFields
 from fleet.traffic.crossings import bound_robots, crossing_cells
+from fleet.traffic.execution import arrivals, claims, release_cleared
 from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import drive
 from fleet.traffic.parking import Parking
@@ -56,7 +57,6 @@ from sim.errors import ErrorCode, FleetError
 if TYPE_CHECKING:
     from fleet.service import FleetService
 
-ARRIVE_TOL = 0.12  # m: a robot stopping at a cell centre has arrived this close to it
 GAP_MARGIN = 0.1  # m: kept between the footprints of a follower and its leader (tracking error)
 
 
@@ -270,34 +270,11 @@ class TrafficManager:
         rows = [t.index(n) for n in self.names]
         pos = np.column_stack([t.f["x"][rows], t.f["y"][rows]])
         yaw = t.f["yaw"][rows]
-        xy, sched = self.grid.xy, self.sched
-        # 1. cells left behind are released once the footprint is clear of them (ground truth)
-        moving = self.a != self.b
-        rel = moving & ~self.released & (np.hypot(*(pos - xy[self.a]).T) >= self.gap)
-        for i in np.flatnonzero(rel).tolist():
-            sched.release(i, int(self.a[i]))
-        self.released |= rel
-        # 2. arrivals at the end of the segment
-        near = np.hypot(*(pos - xy[self.b]).T) < ARRIVE_TOL
-        for i in np.flatnonzero(moving & (self.s >= 1.0 - 1e-9) & ((self.claim >= 0) | near)).tolist():
-            self._arrive(i, now)
+        release_cleared(self, pos)  # 1. cells left behind, once the footprint is clear (execution.py)
+        arrivals(self, pos, now)  # 2. arrivals at the end of the segment
         if self.withdraw != "off":
             withdraw_step(self, now)
-        # 3. claims: robots at rest take their next cell when the schedule lets them; robots on the move take
-        #    the one after when it continues straight on (no stop at the centre)
-        queued = sched.head_step < BIG
-        moving = self.a != self.b
-        for i in np.flatnonzero(queued & ~moving).tolist():
-            if sched.can_claim(i):
-                self._start(i, yaw[i])
-        on = np.flatnonzero(queued & moving & (self.claim < 0))
-        if on.size:
-            nv = np.fromiter((sched.queue[i][0][0] for i in on.tolist()), np.int64, on.size)
-            g, a, b = self.grid.ij, self.a[on], self.b[on]
-            straight = np.all(g[nv] - g[b] == g[b] - g[a], axis=1)
-            for i in on[straight].tolist():
-                if sched.can_claim(i):
-                    self.claim[i], self.claim_step[i] = sched.claim(i)
+        claims(self, yaw)  # 3. next cells claimed when the schedule lets them
         if self.congestion is not None:
             self.congestion.observe(np.concatenate([self.a, self.b]), dt)
         # 4. profiles and commands (numpy over all robots)
@@ -307,7 +284,7 @@ class TrafficManager:
         #    act initiate moves) but can be pushed, so a slow robot holds up only the robots that need its cells.
         if self.admission is not None:
             self._admit(now)
-        want = ((sched.head_step >= BIG) | urgent_room(self)) & (sched.tail != self.goal)
+        want = ((self.sched.head_step >= BIG) | urgent_room(self)) & (self.sched.tail != self.goal)
         if want.any():
             self._plan(now)
         open_stalls(self, now)
@@ -335,37 +312,7 @@ class TrafficManager:
             i = self._idx[h.robot]
             self.goal[i] = self._idle_goal(i, h.x, h.y)
 
-    # ---- events of one robot (O(changed)) ----------------------------------------------------------------
-
-    def _start(self, i: int, yaw: float) -> None:
-        v, step = self.sched.claim(i)
-        self.sched.depart(i, int(self.a[i]))
-        self.b[i], self.seg_step[i] = v, step
-        self.s[i] = self.sd[i] = 0.0
-        self.released[i] = False
-        d = self.grid.xy[v] - self.grid.xy[self.a[i]]
-        turn = (math.atan2(d[1], d[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
-        self.sign[i] = -1.0 if abs(turn) > math.pi / 2 else 1.0
-        self.stats["moves"] += 1
-
-    def _arrive(self, i: int, now: float) -> None:
-        sched = self.sched
-        if not self.released[i]:
-            sched.release(i, int(self.a[i]))
-        if self.claim[i] >= 0:  # straight on into the cell claimed on the way
-            sched.depart(i, int(self.b[i]))
-            self.a[i], self.b[i], self.claim[i] = self.b[i], self.claim[i], -1
-            self.seg_step[i], self.claim_step[i] = self.claim_step[i], BIG
-            self.s[i] -= 1.0
-            self.released[i] = False
-            self.stats["moves"] += 1
-        else:
-            self.a[i] = self.b[i]
-            self.s[i] = self.sd[i] = 0.0
-            self.seg_step[i] = BIG
-            self.released[i] = True
-            self.rest_at[i] = now
-        self._progress(i, now)
+    # ---- progress of one robot (O(changed); execution.py's arrivals call it) ------------------------------
 
     def _progress(self, i: int, now: float) -> None:
         name = self.names[i]

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from fleet.traffic.schedule import BIG
+from sim.transforms import wrap_angle
 
 if TYPE_CHECKING:
     from fleet.traffic.manager import TrafficManager
@@ -62,7 +63,7 @@ def start(tm: TrafficManager, i: int, yaw: float) -> None:
     tm.s[i] = tm.sd[i] = 0.0
     tm.released[i] = False
     d = tm.grid.xy[v] - tm.grid.xy[tm.a[i]]
-    turn = (math.atan2(d[1], d[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
+    turn = wrap_angle(math.atan2(d[1], d[0]) - yaw)
     tm.sign[i] = -1.0 if abs(turn) > math.pi / 2 else 1.0
     tm.stats["moves"] += 1
 

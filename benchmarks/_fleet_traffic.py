@@ -29,6 +29,11 @@ from sim import Pose2D
 TOUCH_M = 1e-3  # footprint circles closer than this count as touching
 
 
+def seconds_or_off(text: str) -> float | None:
+    """A command-line duration in seconds, or `off` (None)."""
+    return None if text == "off" else float(text)
+
+
 def latency_summary(latency: list[float], open_ages: list[float]) -> dict[str, float]:
     """Task latency (given -> reached, s) of the tasks done, and the oldest task still open at the end."""
     lat = np.asarray(latency) if latency else np.zeros(1)
@@ -43,7 +48,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 congestion: float = 0.0, urgent_rank: str = "since_progress",
                 withdraw: str = "crowded", flush_s: float = 1.0, admission: str = "bound",
                 urgent_cells: int | None = 3, one_way: bool = True, urgent_window: int = 1,
-                keep_clear: bool = True, keep_clear_s: float = 4.0, held_clear: bool = True) -> dict[str, Any]:
+                keep_clear: bool = True, keep_clear_s: float = 4.0, held_clear: bool = True,
+                hold_ground_s: float | None = 5.0) -> dict[str, Any]:
     svc = FleetService(FleetConfig(world="warehouse", seed=seed, physics_hz=physics_hz, control_hz=10.0,
                                    costmap_resolution=0.1, avoidance={"type": "orca"}, robot_model=model))
     try:
@@ -54,7 +60,7 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                              urgent_rank=urgent_rank, withdraw=withdraw, flush_s=flush_s,
                              admission=admission, urgent_cells=urgent_cells, one_way=one_way,
                              urgent_window=urgent_window, keep_clear=keep_clear, keep_clear_s=keep_clear_s,
-                             held_clear=held_clear)
+                             held_clear=held_clear, hold_ground_s=hold_ground_s)
         grid = tm0.grid
         cells = rng.choice(len(grid), size=n, replace=False)
         names = [f"t{k:03d}" for k in range(n)]
@@ -137,7 +143,8 @@ def run_traffic(n: int, minutes: float, seed: int, model: str, *, cell: float = 
                 f"congestion {congestion:g}, urgent_rank {urgent_rank}, "
                 f"window {window} (urgent {urgent_window}), withdraw {withdraw}, admission {admission}, "
                 f"urgent_cells {urgent_cells}, "
-                f"one_way {one_way}, keep_clear {keep_clear} ({keep_clear_s:g} s), held_clear {held_clear}"
+                f"one_way {one_way}, keep_clear {keep_clear} ({keep_clear_s:g} s), held_clear {held_clear}, "
+                f"hold_ground_s {hold_ground_s}"
                 f"{f' every {flush_s:g} s' if withdraw == 'flush' else ''}), "
                 f"lidar {lidar}",
                 "sim_min": minutes,

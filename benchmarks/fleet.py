@@ -160,6 +160,8 @@ def _episodes(contacts: set[tuple[frozenset[str], int]]) -> list[tuple[frozenset
 
 
 def main() -> None:
+    from _fleet_traffic import seconds_or_off
+
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="20 and 50 robots, 1 sim-minute")
     ap.add_argument("--robots", type=int, nargs="*", default=None)
@@ -211,6 +213,9 @@ def main() -> None:
                          "robot in a wait (fleet/traffic/admission_wait.py; default on), one run each")
     ap.add_argument("--urgent-window", type=int, default=1,
                     help="traffic layer: moves an urgent robot may have planned ahead (default 1: --window)")
+    ap.add_argument("--hold-ground-s", type=seconds_or_off, default=5.0,
+                    help="traffic layer: a robot with a goal that has not come closer for this long is not pushed "
+                         "back until it is urgent (fleet/traffic/priority.py; default 5; off: PIBT's pushes)")
     ap.add_argument("--baseline-minutes", type=float, default=None,
                     help="sim-minutes of the avoidance baselines (default: --minutes)")
     a = ap.parse_args()
@@ -246,7 +251,7 @@ def main() -> None:
                                         congestion=a.congestion if rule == "cong" else 0.0,
                                         withdraw=wd, flush_s=a.flush_s, admission=adm, urgent_cells=a.urgent_cells,
                                         one_way=ow == "on", keep_clear=kc == "on", keep_clear_s=a.keep_clear_s,
-                                        held_clear=hc == "on",
+                                        held_clear=hc == "on", hold_ground_s=a.hold_ground_s,
                                         lidar="360 beams 10 Hz" if lid == "on" else "off")
                         print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in tcols),
                               flush=True)

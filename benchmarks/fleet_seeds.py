@@ -29,7 +29,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.append(str(HERE))
 
-from fleet.traffic.admission import ADMISSION  # noqa: E402 (after the path set-up)
+from _fleet_traffic import seconds_or_off  # noqa: E402 (after the path set-up)
+
+from fleet.traffic.admission import ADMISSION  # noqa: E402
 
 COLUMNS = ("seed", "done_per_min", "robot_collisions", "obstacle_hits", "failed", "deadlocks", "waits_over_20_s",
            "waits_over_25_s", "waits_over_30_s", "longest_deadlock_s", "longest_open_s", "cycle_waits",
@@ -45,9 +47,9 @@ def parse_seeds(text: str) -> list[int]:
     return out
 
 
-def one_seed(args: tuple[int, int, float, str, str, int, bool, float, bool]) -> dict[str, Any]:
+def one_seed(args: tuple[int, int, float, str, str, int, bool, float, bool, float | None]) -> dict[str, Any]:
     """One run in a worker process (its own world)."""
-    seed, robots, minutes, lidar, admission, urgent_window, keep_clear, keep_clear_s, held_clear = args
+    seed, robots, minutes, lidar, admission, urgent_window, keep_clear, keep_clear_s, held_clear, hold_ground_s = args
     spec = importlib.util.spec_from_file_location("fleet_bench", HERE / "fleet.py")  # not `fleet`: the package
     assert spec is not None and spec.loader is not None
     bench = importlib.util.module_from_spec(spec)
@@ -58,6 +60,7 @@ def one_seed(args: tuple[int, int, float, str, str, int, bool, float, bool]) -> 
         model = bench.robot_model(Path(tmp), bench.LIDAR_FULL if lidar == "on" else bench.LIDAR_OFF, f"d_{lidar}.yaml")
         r = run_traffic(robots, minutes, seed, model, admission=admission, urgent_window=urgent_window,
                         keep_clear=keep_clear, keep_clear_s=keep_clear_s, held_clear=held_clear,
+                        hold_ground_s=hold_ground_s,
                         lidar="360 beams 10 Hz" if lidar == "on" else "off")
     return {"seed": seed, **r}
 
@@ -83,17 +86,20 @@ def main() -> None:
     ap.add_argument("--held-clear", choices=("on", "off"), default="on",
                     help="robots whose goals are held plan no move of their own into the way of a robot in a wait "
                          "(traffic/admission_wait.py; default on)")
+    ap.add_argument("--hold-ground-s", type=seconds_or_off, default=5.0,
+                    help="a robot with a goal that has not come closer for this long is not pushed back until it is "
+                         "urgent (traffic/priority.py; default 5; off: PIBT's pushes)")
     ap.add_argument("--bound", type=float, default=30.0, help="the wait bound, s (issue 17: 30)")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes")
     a = ap.parse_args()
     seeds = parse_seeds(a.seeds)
     print(f"warehouse.world, {a.robots} robots, {a.minutes:g} sim-minutes, lidar {a.lidar}, admission "
           f"{a.admission}, urgent_window {a.urgent_window}, keep_clear {a.keep_clear} ({a.keep_clear_s:g} s), "
-          f"held_clear {a.held_clear}, seeds {a.seeds}, {a.jobs} worker processes")
+          f"held_clear {a.held_clear}, hold_ground_s {a.hold_ground_s}, seeds {a.seeds}, {a.jobs} worker processes")
     print(" | ".join(COLUMNS))
     rows: list[dict[str, Any]] = []
     jobs = [(s, a.robots, a.minutes, a.lidar, a.admission, a.urgent_window, a.keep_clear == "on",
-             a.keep_clear_s, a.held_clear == "on") for s in seeds]
+             a.keep_clear_s, a.held_clear == "on", a.hold_ground_s) for s in seeds]
     with ProcessPoolExecutor(max_workers=a.jobs, mp_context=mp.get_context("spawn")) as pool:
         for r in pool.map(one_seed, jobs):
             rows.append(r)

@@ -123,6 +123,10 @@ class TrafficSection(StrictModel):
     held_clear: bool = Field(True, description="with admission bound: a robot whose goal is held plans no move of "
                              "its own into the next cells of the way of a robot in a wait (it can still be pushed "
                              "there; fewer long waits on the 300-robot warehouse, docs/benchmarks-fleet.md)")
+    hold_ground_s: float | None = Field(5.0, ge=0, le=600, description="a robot with a goal, not urgent, that has "
+                                        "not come closer for this long is not pushed farther from its goal (its "
+                                        "pusher tries another cell or waits) until it becomes urgent (null: off; "
+                                        "fewer long waits on the 300-robot warehouse, docs/benchmarks-fleet.md)")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")
 

@@ -15,7 +15,8 @@ if TYPE_CHECKING:
 
 SETTINGS = ("cell", "speed", "window", "stall_s", "lane_cost", "seed", "priority", "urgent_s", "yield_aside",
             "highway", "congestion", "urgent_rank", "withdraw", "flush_s", "admission",
-            "urgent_cells", "one_way", "urgent_window", "keep_clear", "keep_clear_s", "held_clear")
+            "urgent_cells", "one_way", "urgent_window", "keep_clear", "keep_clear_s", "held_clear",
+            "hold_ground_s")
 
 
 def traffic_layer(service: FleetService) -> TrafficManager | None:

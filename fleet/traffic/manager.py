@@ -22,7 +22,8 @@ edge lies on a cycle, but robots can be pushed back and forth for a long time, a
 cost `highway` times more; one-lane through corridors are one-way, `one_way`), aging (a robot without progress for
 `urgent_s` outranks all that are not urgent until it is `urgent_cells` closer; among the urgent, the longest without
 progress first; an urgent robot plans `urgent_window` moves ahead, priority.lookahead), crossings kept clear
-(`keep_clear`, crossings.py), yielding aside (pibt.py), dispatch admission (`admission`, admission.py: new goals
+(`keep_clear`, crossings.py), yielding aside (pibt.py), robots in a wait not pushed back (`hold_ground_s`,
+priority.holding_ground), dispatch admission (`admission`, admission.py: new goals
 held while the layer is congested; `bound`, the default, admission_wait.py: held robots wait on parking cells off
 the main flow, parking.py, and keep off the ways of robots in a wait, `held_clear`) and, optionally,
 congestion-aware routing (congestion.py). Withdrawing planned moves not yet started (`withdraw`, withdraw.py): by
@@ -47,7 +48,7 @@ from fleet.traffic.grid import TrafficGrid
 from fleet.traffic.motion import drive
 from fleet.traffic.parking import Parking
 from fleet.traffic.pibt import PIBT
-from fleet.traffic.priority import URGENT, lookahead, priorities, urgent_room
+from fleet.traffic.priority import URGENT, holding_ground, lookahead, priorities, urgent_room
 from fleet.traffic.schedule import BIG, Schedule
 from fleet.traffic.settings import check_settings
 from fleet.traffic.stalls import close_stall, open_stalls
@@ -73,7 +74,8 @@ class TrafficManager:
                  withdraw: Literal["off", "loops", "ahead", "both", "flush", "crowded"] = "crowded",
                  admission: Literal["off", "aimd", "park", "bound"] = "bound", urgent_cells: int | None = 3,
                  one_way: bool = True, record: bool = False, flush_s: float = 1.0, urgent_window: int = 1,
-                 keep_clear: bool = True, keep_clear_s: float = 4.0, held_clear: bool = True) -> None:
+                 keep_clear: bool = True, keep_clear_s: float = 4.0, held_clear: bool = True,
+                 hold_ground_s: float | None = 5.0) -> None:
         self.service = service
         spec = service.default_spec()
         self.radius = spec.footprint_radius
@@ -81,10 +83,11 @@ class TrafficManager:
         check_settings(cell=cell, gap=self.gap, radius=self.radius, priority=priority, window=window,
                        urgent_s=urgent_s, urgent_rank=urgent_rank, highway=highway, congestion=congestion,
                        withdraw=withdraw, flush_s=flush_s, admission=admission, urgent_cells=urgent_cells,
-                       urgent_window=urgent_window, keep_clear_s=keep_clear_s)
+                       urgent_window=urgent_window, keep_clear_s=keep_clear_s, hold_ground_s=hold_ground_s)
         self.priority, self.window, self.stall_s, self.urgent_window = priority, window, stall_s, urgent_window
         self.urgent_s, self.urgent_rank, self.urgent_cells = urgent_s, urgent_rank, urgent_cells  # module doc
         self.keep_clear, self.keep_clear_s, self.held_clear = keep_clear, keep_clear_s, held_clear  # module doc
+        self.hold_ground_s = hold_ground_s  # robots in a wait are not pushed back (priority.holding_ground)
         self.grid = TrafficGrid(service.static_clearance(), service.world.description.bounds(), cell, self.radius,
                                 lane_cost=lane_cost, highway=highway, one_way=one_way)
         self.pibt = PIBT(self.grid.neighbours, self.grid.fields.to, seed)
@@ -338,6 +341,7 @@ class TrafficManager:
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
         self.pibt.box_for = bound_robots(self, now, held) if self.keep_clear else None  # no work when off
         self.pibt.keep_off, self.pibt.hot = held_off_ways(self, held) if self.held_clear else (None, set())
+        self.pibt.hold_ground = holding_ground(self, now) if self.hold_ground_s is not None else None
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

@@ -25,6 +25,10 @@ Changes for real robots (fleet/traffic/manager.py executes the steps asynchronou
 - `hot` / `keep_off`: an agent marked in `keep_off` (the layer: a robot whose goal admission holds, on its way to
   park) plans no move of its own into a `hot` cell (the next cells of the ways of robots in a wait,
   admission_wait.py); it can still be pushed there, and it may leave one;
+- `hold_ground`: agents that hold their ground (the layer: robots with a goal, not urgent, that have waited
+  `hold_ground_s` without coming closer, priority.holding_ground). When pushed, such an agent takes only nodes no
+  farther from its goal; if it has none, its pusher tries another node or waits. Urgent agents are never marked,
+  so the highest-priority robot is held up at most until the agent in its way becomes urgent in turn;
 - `traps`: the cells of one-way corridors. A pushed agent outside them is never pushed into one that does not bring
   it closer to its goal: it could only drive through, however long the corridor (on the warehouse one push into
   the one-lane cross row sent a robot 43 cells round, a 51 s wait); its pusher tries another node or waits.
@@ -55,6 +59,7 @@ class PIBT:
         self.box_for: np.ndarray | None = None  # the agents the rule applies to (None: all; the layer: with a goal)
         self.hot: set[int] = set()  # cells `keep_off` agents do not enter on a move of their own (module doc)
         self.keep_off: np.ndarray | None = None
+        self.hold_ground: np.ndarray | None = None  # agents not pushed farther from their goals (module doc)
 
     def step(self, cur: Sequence[int], goals: Sequence[int], priority: np.ndarray,
              frozen: Sequence[int] = (), prefer: Sequence[int] | None = None) -> list[int]:
@@ -94,6 +99,8 @@ class PIBT:
             # follower extends its leader's plan, it cannot push it back (two robots doing that to each other in
             # turn, each frozen while the other plans, was a livelock in a one-lane aisle).
             cands = [v for v in cands if dist[v] <= dist[c]]
+        if pusher is not None and self.hold_ground is not None and self.hold_ground[i]:
+            cands = [v for v in cands if dist[v] <= dist[c]]  # pushed, but not back: it holds its ground
         if pusher is not None and self.traps and c not in self.traps:
             cands = [v for v in cands if v not in self.traps or dist[v] < dist[c]]
         if (pusher is None and self.box and c not in self.box and self.priority[i] < self.box_exempt

@@ -39,6 +39,16 @@ def priorities(tm: TrafficManager, now: float, held: np.ndarray | None = None) -
     return priority
 
 
+def holding_ground(tm: TrafficManager, now: float) -> np.ndarray:
+    """Robots that hold their ground (PIBT's `hold_ground`): a goal, not urgent, and `hold_ground_s` or more since
+    they last came closer. A push may move them aside or on, not back. A wait of 30 s on the 300-robot warehouse
+    was mostly ground lost to pushes just before the robot became urgent, won back at 3-4 s a cell
+    (docs/benchmarks-fleet.md, eighteenth landing); the rule ends when aging makes the robot urgent, so an urgent
+    robot it stands in the way of waits at most `urgent_s - hold_ground_s` for it."""
+    assert tm.hold_ground_s is not None  # only called with the rule on
+    return tm.pending & np.isinf(tm.urgent_at) & (now - tm.best_at >= tm.hold_ground_s)
+
+
 def lookahead(tm: TrafficManager) -> np.ndarray:
     """Moves each robot may have planned ahead: `window`, and `urgent_window` for an urgent robot with a goal.
     An urgent robot's next move is planned while the one before is still queued (it waits to claim that cell), so

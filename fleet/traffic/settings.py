@@ -16,7 +16,7 @@ WITHDRAW = ("off", "loops", "ahead", "both", "flush", "crowded")  # unstarted mo
 def check_settings(*, cell: float, gap: float, radius: float, priority: str, window: int, urgent_s: float | None,
                    urgent_rank: str, highway: float, congestion: float, withdraw: str, flush_s: float,
                    admission: str, urgent_cells: int | None = None, urgent_window: int = 1,
-                   keep_clear_s: float = 4.0) -> None:
+                   keep_clear_s: float = 4.0, hold_ground_s: float | None = None) -> None:
     """Raise INVALID_ARGUMENT for the first setting out of its range (`gap`: the cell a robot needs, m)."""
     if gap > cell:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic cell {cell} m is too small for a robot of "
@@ -44,6 +44,9 @@ def check_settings(*, cell: float, gap: float, radius: float, priority: str, win
     if not (math.isfinite(keep_clear_s) and keep_clear_s > 0):
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic keep_clear_s must be > 0 s (a robot kept out of a "
                          f"crossing that long at rest enters anyway), got {keep_clear_s}")
+    if hold_ground_s is not None and not (math.isfinite(hold_ground_s) and hold_ground_s >= 0):
+        raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic hold_ground_s must be ≥ 0 s (or None: off), got "
+                         f"{hold_ground_s}")
     if urgent_cells is not None and urgent_cells < 1:
         raise FleetError(ErrorCode.INVALID_ARGUMENT, f"traffic urgent_cells must be ≥ 1 cell (or None: urgent until "
                          f"the goal), got {urgent_cells}")

@@ -126,6 +126,7 @@ class TrafficSection(StrictModel):
     hold_ground_s: float | None = Field(5.0, ge=0, le=600, description="a robot with a goal, not urgent, that has "
                                         "not come closer for this long is not pushed farther from its goal (its "
                                         "pusher tries another cell or waits) until it becomes urgent (null: off; "
+                                        "needs urgent_s; "
                                         "fewer long waits on the 300-robot warehouse, docs/benchmarks-fleet.md)")
     one_way: bool = Field(True, description="one-lane corridors that are not dead ends are one-way, where the "
                           "graph stays strongly connected (no head-on meetings in them)")

@@ -51,13 +51,14 @@ def tmp(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return tmp_path_factory.mktemp("hold_ground")
 
 
-@pytest.mark.parametrize("hold_ground_s", [5.0, None])
-def test_the_layer_marks_robots_in_a_wait_that_are_not_urgent(tmp: Path, hold_ground_s: float | None) -> None:
+@pytest.mark.parametrize(("hold_ground_s", "urgent_s"), [(5.0, 10.0), (None, 10.0), (5.0, None)])
+def test_the_layer_marks_robots_in_a_wait_that_are_not_urgent(tmp: Path, hold_ground_s: float | None,
+                                                              urgent_s: float | None) -> None:
     with FleetService(FleetConfig(world=str(corridor_world(tmp)), seed=0, physics_hz=20.0, control_hz=10.0)) as svc:
         starts = {"r0": (-4.5, 1.5), "r1": (-4.5, -1.5), "r2": (4.5, 1.5), "r3": (4.5, -1.5)}
         for name, (x, y) in starts.items():
             svc.spawn_robot(name, Pose2D(x, y, 0.0))
-        tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0, urgent_s=10.0, admission="off",
+        tm = enable_traffic(svc, cell=1.0, speed=0.6, stall_s=10.0, urgent_s=urgent_s, admission="off",
                             hold_ground_s=hold_ground_s)
 
         def setup() -> np.ndarray | None:
@@ -73,6 +74,9 @@ def test_the_layer_marks_robots_in_a_wait_that_are_not_urgent(tmp: Path, hold_gr
             return tm.pibt.hold_ground
 
         marked = svc.call(setup)
+        if urgent_s is None:  # without aging nothing would end a hold: the rule is off
+            assert marked is None and not np.isfinite(tm.urgent_at).any()
+            return
         assert math.isfinite(tm.urgent_at[tm._idx["r2"]])
         if hold_ground_s is None:
             assert marked is None

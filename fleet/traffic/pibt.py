@@ -94,13 +94,15 @@ class PIBT:
         c = self.cur[i]
         cands = [c, *self.neighbours[c]]
         dist = self.field(self.goals[i])
-        if self.move_on and i in self.frozen and self.priority[i] > self.root:
-            # A frozen agent pushed by a chain of lower priority may only move on (no farther from its goal): a
-            # follower extends its leader's plan, it cannot push it back (two robots doing that to each other in
-            # turn, each frozen while the other plans, was a livelock in a one-lane aisle).
+        # Two ways an agent may only move on (no farther from its goal):
+        # - frozen and pushed by a chain of lower priority: a follower extends its leader's plan, it cannot push it
+        #   back (two robots doing that to each other in turn, each frozen while the other plans, was a livelock in
+        #   a one-lane aisle);
+        # - pushed while it holds its ground (`hold_ground`, module doc).
+        frozen_under = self.move_on and i in self.frozen and self.priority[i] > self.root
+        holding = pusher is not None and self.hold_ground is not None and bool(self.hold_ground[i])
+        if frozen_under or holding:
             cands = [v for v in cands if dist[v] <= dist[c]]
-        if pusher is not None and self.hold_ground is not None and self.hold_ground[i]:
-            cands = [v for v in cands if dist[v] <= dist[c]]  # pushed, but not back: it holds its ground
         if pusher is not None and self.traps and c not in self.traps:
             cands = [v for v in cands if v not in self.traps or dist[v] < dist[c]]
         if (pusher is None and self.box and c not in self.box and self.priority[i] < self.box_exempt

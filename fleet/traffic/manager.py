@@ -341,9 +341,7 @@ class TrafficManager:
         frozen = np.flatnonzero(self.sched.queued >= lookahead(self)).tolist()
         self.pibt.box_for = bound_robots(self, now, held) if self.keep_clear else None  # no work when off
         self.pibt.keep_off, self.pibt.hot = held_off_ways(self, held) if self.held_clear else (None, set())
-        # Only with aging on: aging is what ends a robot's hold (priority.holding_ground)
-        on = self.hold_ground_s is not None and self.urgent_s is not None
-        self.pibt.hold_ground = holding_ground(self, now) if on else None
+        self.pibt.hold_ground = holding_ground(self, now)  # None when off, or without aging to end a hold
         ahead = 2 * self.grid.xy[tail] - self.grid.xy[self.sched.before]  # straight on from the last move
         prefer = np.where(self.sched.before >= 0, self.grid.nodes_at(ahead), -1)
         nxt = np.asarray(self.pibt.step(tail.tolist(), self.goal.tolist(), priority, frozen, prefer.tolist()),

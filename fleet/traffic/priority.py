@@ -39,15 +39,16 @@ def priorities(tm: TrafficManager, now: float, held: np.ndarray | None = None) -
     return priority
 
 
-def holding_ground(tm: TrafficManager, now: float) -> np.ndarray:
-    """Robots that hold their ground (PIBT's `hold_ground`): a goal, not urgent, and `hold_ground_s` or more since
-    they last came closer. A push may move them aside or on, not back. A wait of 30 s on the 300-robot warehouse
-    was mostly ground lost to pushes just before the robot became urgent, won back at 3-4 s a cell
-    (docs/benchmarks-fleet.md, eighteenth landing); the rule ends when aging makes the robot urgent, so an urgent
-    robot it stands in the way of waits at most `urgent_s - hold_ground_s` for it. Without aging (`urgent_s` None)
-    nothing would end a hold (two robots met head-on could wait for ever), so the layer applies the rule only with
-    aging on."""
-    assert tm.hold_ground_s is not None  # only called with the rule on
+def holding_ground(tm: TrafficManager, now: float) -> np.ndarray | None:
+    """Robots that hold their ground (PIBT's `hold_ground`; None: the rule is off): a goal, not urgent, and
+    `hold_ground_s` or more since they last came closer. A push may move them aside or on, not back. A wait of 30 s
+    on the 300-robot warehouse was mostly ground lost to pushes just before the robot became urgent, won back at
+    3-4 s a cell (docs/benchmarks-fleet.md, eighteenth landing); the rule ends when aging makes the robot urgent, so
+    an urgent robot it stands in the way of waits at most `urgent_s - hold_ground_s` for it. Without aging
+    (`urgent_s` None) nothing would end a hold (two robots met head-on could wait for ever), so the rule applies
+    only with aging on."""
+    if tm.hold_ground_s is None or tm.urgent_s is None:
+        return None
     return tm.pending & np.isinf(tm.urgent_at) & (now - tm.best_at >= tm.hold_ground_s)
 
 

@@ -12,12 +12,16 @@ Each seed's 2× ORCA bar is `fleet.py --robots N --minutes M --avoidance orca --
 
     cd benchmarks && nice -n 5 ../.venv/bin/python fleet_seeds.py --seeds 0-11 --jobs 2      # development seeds
     cd benchmarks && nice -n 5 ../.venv/bin/python fleet_seeds.py --seeds 12-17 --minutes 5  # held out, longer
+
+`--json FILE` writes each seed's row as a JSON line; `compare_seeds.py NEW BASE` judges two such runs seed by seed
+(a paired sign test: one set's sums can point either way).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import multiprocessing as mp
 import sys
 import tempfile
@@ -65,6 +69,16 @@ def one_seed(args: tuple[int, int, float, str, str, int, bool, float, bool, floa
     return {"seed": seed, **r}
 
 
+def json_row(r: dict[str, Any]) -> dict[str, Any]:
+    """A seed's row as plain JSON values: numbers (numpy scalars as Python's) and strings; the rest left out."""
+    out: dict[str, Any] = {}
+    for k, v in r.items():
+        v = v.item() if getattr(v, "shape", None) == () else v
+        if isinstance(v, int | float | str):
+            out[k] = v
+    return out
+
+
 def within(r: dict[str, Any], bound: float) -> bool:
     return max(r["longest_deadlock_s"], r["longest_open_s"]) <= bound
 
@@ -91,6 +105,8 @@ def main() -> None:
                          "urgent (traffic/priority.py; default 5; off: PIBT's pushes)")
     ap.add_argument("--bound", type=float, default=30.0, help="the wait bound, s (issue 17: 30)")
     ap.add_argument("--jobs", type=int, default=2, help="worker processes")
+    ap.add_argument("--json", type=Path, default=None,
+                    help="also write each seed's row to this file as a JSON line (for compare_seeds.py)")
     a = ap.parse_args()
     seeds = parse_seeds(a.seeds)
     print(f"warehouse.world, {a.robots} robots, {a.minutes:g} sim-minutes, lidar {a.lidar}, admission "
@@ -98,11 +114,16 @@ def main() -> None:
           f"held_clear {a.held_clear}, hold_ground_s {a.hold_ground_s}, seeds {a.seeds}, {a.jobs} worker processes")
     print(" | ".join(COLUMNS))
     rows: list[dict[str, Any]] = []
+    if a.json is not None:
+        a.json.write_text("")  # this run's rows only
     jobs = [(s, a.robots, a.minutes, a.lidar, a.admission, a.urgent_window, a.keep_clear == "on",
              a.keep_clear_s, a.held_clear == "on", a.hold_ground_s) for s in seeds]
     with ProcessPoolExecutor(max_workers=a.jobs, mp_context=mp.get_context("spawn")) as pool:
         for r in pool.map(one_seed, jobs):
             rows.append(r)
+            if a.json is not None:
+                with a.json.open("a") as out:
+                    out.write(json.dumps(json_row(r)) + "\n")
             print(" | ".join(f"{r[c]:.2f}" if isinstance(r[c], float) else str(r[c]) for c in COLUMNS), flush=True)
     n = len(rows)
     total = lambda key: sum(r[key] for r in rows)  # noqa: E731

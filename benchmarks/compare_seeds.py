@@ -62,6 +62,7 @@ def paired(new: dict[int, dict[str, Any]], base: dict[int, dict[str, Any]], key:
 
 
 def sums(rows: dict[int, dict[str, Any]], seeds: list[int], bound: float) -> str:
+    """One run's sums over `seeds`, and the spread per seed of its waits over 25 s."""
     over = " / ".join(str(sum(rows[s][k] for s in seeds)) for k in FIGURES[:3])
     per_seed = [rows[s]["waits_over_25_s"] for s in seeds]
     spread = f"{statistics.mean(per_seed):.2f} / {statistics.variance(per_seed):.2f}" if len(seeds) > 1 else "-"
@@ -77,7 +78,10 @@ def main() -> None:
     ap.add_argument("base", type=Path, help="the same of the baseline, on the same seeds")
     ap.add_argument("--bound", type=float, default=30.0, help="the wait bound, s (issue 17: 30)")
     a = ap.parse_args()
-    new, base = load(a.new), load(a.base)
+    try:
+        new, base = load(a.new), load(a.base)
+    except (OSError, ValueError) as e:  # a missing or malformed file: its name and line, no traceback
+        raise SystemExit(str(e)) from None
     seeds = sorted(new.keys() & base.keys())
     if not seeds:
         raise SystemExit(f"no seed in both {a.new} and {a.base}")

@@ -26,6 +26,11 @@ NEEDED = ("seed", "done_per_min", "waits_over_20_s", "waits_over_25_s", "waits_o
           "longest_open_s", "cycle_waits")
 
 
+def longest_wait(row: dict[str, Any]) -> float:
+    """A run's longest wait: the longer of the closed waits' and the one still open at the end."""
+    return float(max(row["longest_deadlock_s"], row["longest_open_s"]))
+
+
 def load(path: Path) -> dict[int, dict[str, Any]]:
     """Seed -> row, from a JSON-lines file (one object per seed). A bad line is named with its file and line."""
     rows: dict[int, dict[str, Any]] = {}
@@ -39,7 +44,7 @@ def load(path: Path) -> dict[int, dict[str, Any]]:
         missing = [k for k in NEEDED if not isinstance(row, dict) or k not in row]
         if missing:
             raise ValueError(f"{path}:{n}: missing {', '.join(missing)} (write it with fleet_seeds.py --json)")
-        row["longest_wait_s"] = max(row["longest_deadlock_s"], row["longest_open_s"])  # closed or still open
+        row["longest_wait_s"] = longest_wait(row)
         rows[int(row["seed"])] = row
     return rows
 

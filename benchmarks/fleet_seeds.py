@@ -34,6 +34,7 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.append(str(HERE))
 
 from _fleet_traffic import seconds_or_off  # noqa: E402 (after the path set-up)
+from compare_seeds import longest_wait  # noqa: E402
 
 from fleet.traffic.admission import ADMISSION  # noqa: E402
 
@@ -80,7 +81,7 @@ def json_row(r: dict[str, Any]) -> dict[str, Any]:
 
 
 def within(r: dict[str, Any], bound: float) -> bool:
-    return max(r["longest_deadlock_s"], r["longest_open_s"]) <= bound
+    return longest_wait(r) <= bound
 
 
 def main() -> None:

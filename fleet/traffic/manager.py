@@ -96,7 +96,11 @@ class TrafficManager:
         self.pibt.box = crossing_cells(self.grid.ij, self.grid.neighbours) if keep_clear else set()
         self.pibt.box_exempt = URGENT  # a robot kept out of a crossing enters once urgent (crossings.py)
         self.sched = Schedule(len(self.grid), record)
-        self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # cells/s²
+        # The profile brakes at 0.7 × the rated acceleration (at most 1 m/s²), so the tracking keeps up and a follower
+        # stops where it planned, short of its leader (braking at the rated value: 26–59 contacts per 10-minute run);
+        # it speeds up at the rated value, which only shortens the restarts that make up a jam's flow (motion.py).
+        self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # braking, cells/s²
+        self.accel_up = max(spec.limits.max_linear_accel / cell, self.accel)  # speeding up, cells/s²
         self.peak = speed / cell  # cells/s
         self.max_w = min(2.0, spec.limits.max_angular)
         # Congestion-aware routing (congestion.py): PIBT ranks a robot's next cells by fields with a toll on busy

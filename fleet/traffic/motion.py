@@ -39,13 +39,14 @@ def leader_cap(start: np.ndarray, seg: np.ndarray, lead: np.ndarray, gap: float)
 
 
 def advance(s: np.ndarray, sd: np.ndarray, stop: np.ndarray, go: np.ndarray, vmax: np.ndarray, accel: float,
-            dt: float) -> tuple[np.ndarray, np.ndarray]:
+            dt: float, up: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One control period of the braking-limited profile: new progress and rate (cells, cells/s). The rate is
     held for the whole period, so it is the largest v with v·dt + v²/(2·accel) ≤ the distance left: the
-    profile can always stop in time at `accel`, with no sudden drop at the end."""
+    profile can always stop in time at `accel`, with no sudden drop at the end. It speeds up at `up` (default
+    `accel`): how fast it gets going does not change where it can stop."""
     ad = accel * dt
     brake = -ad + np.sqrt(ad * ad + 2.0 * accel * np.maximum(stop - s, 0.0))
-    target = np.where(go, np.minimum(sd + accel * dt, vmax), np.maximum(sd - accel * dt, 0.0))
+    target = np.where(go, np.minimum(sd + (accel if up is None else up) * dt, vmax), np.maximum(sd - ad, 0.0))
     sd = np.maximum(np.minimum(target, brake), 0.0)
     return np.minimum(s + sd * dt, np.maximum(stop, s)), sd
 
@@ -67,7 +68,7 @@ def drive(tm: TrafficManager, now: float, dt: float, pos: np.ndarray, yaw: np.nd
         if ok.any():
             cap = leader_cap(xy[tm.a[ok]], seg[ok], pos[lead[ok]], tm.gap)
             stop[ok] = np.minimum(stop[ok], cap)
-    tm.s, tm.sd = advance(tm.s, tm.sd, stop, go, tm.peak * tm.scale, tm.accel, dt)
+    tm.s, tm.sd = advance(tm.s, tm.sd, stop, go, tm.peak * tm.scale, tm.accel, dt, tm.accel_up)
     ref = xy[tm.a] + tm.s[:, None] * seg
     e = ref - pos
     along = e[:, 0] * unit[:, 0] + e[:, 1] * unit[:, 1]

@@ -58,7 +58,7 @@ def test_look_ahead_and_clear_crossings_keep_a_lifelong_jam_safe_and_live(tmp_pa
     """Eight robots with lifelong random goals in a shop of shelves, urgent after 1 s without progress (most of
     them are urgent most of the time, each planning ahead), optionally keeping crossings clear (crossings.py; the
     shop's centre is one): no collision, the cells entered in the planned order (the schedule stays acyclic), every
-    goal reached."""
+    goal reached. Whether the robots then come to rest is tests/fleet/test_traffic_end_phase.py's question."""
     shelves = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
     rng = np.random.default_rng(5)
     with FleetService(FleetConfig(world=str(world(tmp_path, "shop", (4.8, 3.8), shelves)), seed=0, physics_hz=20.0,
@@ -83,17 +83,17 @@ def test_look_ahead_and_clear_crossings_keep_a_lifelong_jam_safe_and_live(tmp_pa
         tm.on_reached = next_goal
         for name in left:
             next_goal(name)
-        while svc.world.time < 400.0 and (any(left.values()) or tm.active_count()):
+        while svc.world.time < 400.0 and tm.stats["reached"] < 24:
             svc.advance(0.5)
             most_queued = max(most_queued, int(tm.sched.queued[np.isfinite(tm.urgent_at)].max(initial=0)))
-        assert not any(left.values()) and tm.active_count() == 0, tm.describe()
-        assert tm.stats["reached"] == 24 and most_queued >= urgent_window, most_queued
+        assert not any(left.values()) and tm.stats["reached"] == 24, tm.describe()
+        assert most_queued >= urgent_window, most_queued
         assert truth.pair > 0.0 and truth.wall > 0.0, (truth.pair, truth.wall)
         planned: dict[int, list[str]] = {}
         for cell, i in tm.sched.planned_entries:
             planned.setdefault(cell, []).append(tm.names[i])
-        for cell, entered in truth.entries.items():
-            assert entered == planned[cell], (cell, entered, planned[cell])
+        for cell, entered in truth.entries.items():  # moves still under way have entries planned, not yet made
+            assert entered == planned[cell][:len(entered)], (cell, entered, planned[cell])
 
 
 def test_urgent_window_is_checked(tmp_path: Path) -> None:

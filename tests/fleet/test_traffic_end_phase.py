@@ -5,10 +5,10 @@ robot stands on its own goal it is pushed off in turn and goes back the same way
 corridors can send them round whole blocks. PIBT is not complete for one-shot MAPF (LaCAM adds the search that
 makes it so), and this layer plans no rotations. Measured in the shop below over 30 goal draws × 4 settings:
 3 of 120 runs on the twenty-first landing's code and 6 of 120 on the twenty-second's (2 of 30 draws of this
-setting) still had robots driving at 400 s, every goal reached (docs/benchmarks-fleet.md, twenty-second landing). A rule that
-kept returning robots off robots on their goals came to rest every time but left a robot beside its goal in 37
-of 120 runs, and was not kept. This test stands for the limit: it fails (xfail, strict) until a fix makes
-the instance come to rest.
+setting) still had robots driving at 400 s, every goal reached (docs/benchmarks-fleet.md, twenty-second
+landing). A rule that kept returning robots off robots on their goals came to rest every time but left a robot
+beside its goal in 37 of 120 runs, and was not kept. This test stands for the limit: it fails (xfail, strict)
+until a fix makes the instance come to rest.
 """
 
 from __future__ import annotations

@@ -18,10 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fleet import FleetConfig, FleetService
 from fleet.traffic import enable_traffic
-from sim import Pose2D
-from tests.fleet.test_traffic_async import Truth, world
+from tests.fleet.test_traffic_async import Truth
+from tests.fleet.test_traffic_lookahead import give_goals, shop, spawn_shop
 
 
 @pytest.mark.xfail(strict=True, reason="known limit: robots pushed off their goals after the last task can push each "
@@ -29,26 +28,12 @@ from tests.fleet.test_traffic_async import Truth, world
 def test_a_shop_whose_work_is_done_comes_to_rest(tmp_path: Path) -> None:
     """test_traffic_lookahead.py's lifelong jam (look-ahead 1, crossings kept clear, goals drawn with seed 5): every
     goal is reached with no collision, and then every robot should be at rest on its goal by 400 s."""
-    shelves = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
-    rng = np.random.default_rng(5)
-    with FleetService(FleetConfig(world=str(world(tmp_path, "shop", (4.8, 3.8), shelves)), seed=0, physics_hz=20.0,
-                                  control_hz=10.0)) as svc:
+    with shop(tmp_path) as svc:
         tm = enable_traffic(svc, cell=1.0, speed=0.7, stall_s=5.0, urgent_s=1.0, urgent_window=1, keep_clear=True)
-        for k, c in enumerate(rng.choice(len(tm.grid), 8, replace=False).tolist()):
-            svc.spawn_robot(f"w{k}", Pose2D(float(tm.grid.xy[c][0]), float(tm.grid.xy[c][1]), 0.0))
-            tm.add(f"w{k}")
+        rng = np.random.default_rng(5)
+        spawn_shop(svc, tm, rng)
         truth = Truth(svc, tm)
-        left = {f"w{k}": 3 for k in range(8)}
-
-        def next_goal(name: str, now: float = 0.0) -> None:
-            if left[name]:
-                left[name] -= 1
-                taken = set(tm.goal.tolist()) | {int(tm.a[tm.names.index(name)])}  # one robot per goal cell
-                tm.go(name, *tm.grid.xy[int(rng.choice([c for c in range(len(tm.grid)) if c not in taken]))])
-
-        tm.on_reached = next_goal
-        for name in left:
-            next_goal(name)
+        left = give_goals(tm, rng)
         while svc.world.time < 400.0 and (any(left.values()) or tm.active_count()):
             svc.advance(0.5)
         assert tm.stats["reached"] == 24  # the work is done either way

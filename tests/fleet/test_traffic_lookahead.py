@@ -52,6 +52,38 @@ def test_an_urgent_robot_plans_urgent_window_moves_ahead_and_the_others_window(t
     assert seen["arrived"] < 40.0
 
 
+SHELVES = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
+
+
+def shop(tmp: Path) -> FleetService:
+    """A room with four shelves round a crossing (tests/fleet/test_traffic_end_phase.py's too)."""
+    return FleetService(FleetConfig(world=str(world(tmp, "shop", (4.8, 3.8), SHELVES)), seed=0, physics_hz=20.0,
+                                    control_hz=10.0))
+
+
+def spawn_shop(svc: FleetService, tm: TrafficManager, rng: np.random.Generator) -> None:
+    """Eight robots w0 … w7 at random cells of the layer."""
+    for k, c in enumerate(rng.choice(len(tm.grid), 8, replace=False).tolist()):
+        svc.spawn_robot(f"w{k}", Pose2D(float(tm.grid.xy[c][0]), float(tm.grid.xy[c][1]), 0.0))
+        tm.add(f"w{k}")
+
+
+def give_goals(tm: TrafficManager, rng: np.random.Generator) -> dict[str, int]:
+    """Each robot gets 3 random goals, one after another (one robot per goal cell); the goals each has left."""
+    left = dict.fromkeys(tm.names, 3)
+
+    def next_goal(name: str, now: float = 0.0) -> None:
+        if left[name]:
+            left[name] -= 1
+            taken = set(tm.goal.tolist()) | {int(tm.a[tm.names.index(name)])}
+            tm.go(name, *tm.grid.xy[int(rng.choice([c for c in range(len(tm.grid)) if c not in taken]))])
+
+    tm.on_reached = next_goal
+    for name in left:
+        next_goal(name)
+    return left
+
+
 @pytest.mark.parametrize(("urgent_window", "keep_clear"), [(2, False), (3, False), (1, True), (3, True)])
 def test_look_ahead_and_clear_crossings_keep_a_lifelong_jam_safe_and_live(tmp_path: Path, urgent_window: int,
                                                                           keep_clear: bool) -> None:
@@ -59,30 +91,15 @@ def test_look_ahead_and_clear_crossings_keep_a_lifelong_jam_safe_and_live(tmp_pa
     them are urgent most of the time, each planning ahead), optionally keeping crossings clear (crossings.py; the
     shop's centre is one): no collision, the cells entered in the planned order (the schedule stays acyclic), every
     goal reached. Whether the robots then come to rest is tests/fleet/test_traffic_end_phase.py's question."""
-    shelves = [(-2.0, 1.5, 2.0, 0.2), (2.0, 1.5, 2.0, 0.2), (-2.0, -1.5, 2.0, 0.2), (2.0, -1.5, 2.0, 0.2)]
-    rng = np.random.default_rng(5)
-    with FleetService(FleetConfig(world=str(world(tmp_path, "shop", (4.8, 3.8), shelves)), seed=0, physics_hz=20.0,
-                                  control_hz=10.0)) as svc:
+    with shop(tmp_path) as svc:
         tm = enable_traffic(svc, cell=1.0, speed=0.7, stall_s=5.0, urgent_s=1.0, urgent_window=urgent_window,
                             keep_clear=keep_clear, record=True)
         assert len(tm.pibt.box) == (4 if keep_clear else 0)
-        cells = rng.choice(len(tm.grid), 8, replace=False).tolist()
-        for k, c in enumerate(cells):
-            svc.spawn_robot(f"w{k}", Pose2D(float(tm.grid.xy[c][0]), float(tm.grid.xy[c][1]), 0.0))
-            tm.add(f"w{k}")
+        rng = np.random.default_rng(5)
+        spawn_shop(svc, tm, rng)
         truth = Truth(svc, tm)
-        left = {f"w{k}": 3 for k in range(8)}
+        left = give_goals(tm, rng)
         most_queued = 0  # by an urgent robot
-
-        def next_goal(name: str, now: float = 0.0) -> None:
-            if left[name]:
-                left[name] -= 1
-                taken = set(tm.goal.tolist()) | {int(tm.a[tm.names.index(name)])}  # one robot per goal cell
-                tm.go(name, *tm.grid.xy[int(rng.choice([c for c in range(len(tm.grid)) if c not in taken]))])
-
-        tm.on_reached = next_goal
-        for name in left:
-            next_goal(name)
         while svc.world.time < 400.0 and tm.stats["reached"] < 24:
             svc.advance(0.5)
             most_queued = max(most_queued, int(tm.sched.queued[np.isfinite(tm.urgent_at)].max(initial=0)))

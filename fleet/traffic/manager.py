@@ -98,7 +98,8 @@ class TrafficManager:
         self.sched = Schedule(len(self.grid), record)
         # The profile brakes at 0.7 × the rated acceleration (at most 1 m/s²), so the tracking keeps up and a follower
         # stops where it planned, short of its leader (braking at the rated value: 26–59 contacts per 10-minute run);
-        # it speeds up at the rated value, which only shortens the restarts that make up a jam's flow (motion.py).
+        # it speeds up at the rated value: every start from rest is shorter, and a jam is mostly starts from rest
+        # (docs/benchmarks-fleet.md, twenty-second landing).
         self.accel = min(1.0, spec.limits.max_linear_accel * 0.7) / cell  # braking, cells/s²
         self.accel_up = max(spec.limits.max_linear_accel / cell, self.accel)  # speeding up, cells/s²
         self.peak = speed / cell  # cells/s

@@ -1,10 +1,11 @@
 """Vectorised motion of the traffic layer's robots along their claimed cells (numpy over all robots).
 
 Each robot follows a reference at progress `s` (in cells) along the straight segment from the centre of the
-cell it is leaving; `s` runs on a braking-limited profile: accelerate to the peak speed, and always able to
-stop (at the layer's acceleration) before `stop` — the end of what it has claimed (its next cell, or the one
-after when that continues straight on) and the point where it would come within `gap` of its leader (the
-robot leaving a cell it has claimed), taken from the leader's *ground-truth* position. So a follower moves
+cell it is leaving; `s` runs on a braking-limited profile: accelerate (at the robot's rated acceleration) to the
+peak speed, and always able to stop (at the layer's braking rate, below it) before `stop` — the end of what it
+has claimed (its next cell, or the one after when that continues straight on) and the point where it would come
+within `gap` of its leader (the robot leaving a cell it has claimed), taken from the leader's *ground-truth*
+position. So a follower moves
 as soon as its leader does, and a slow, held or stuck leader simply stops it short: execution is robust to
 delays without any timing assumption.
 """

@@ -5,9 +5,8 @@ cell it is leaving; `s` runs on a braking-limited profile: accelerate (at the ro
 peak speed, and always able to stop (at the layer's braking rate, below it) before `stop` — the end of what it
 has claimed (its next cell, or the one after when that continues straight on) and the point where it would come
 within `gap` of its leader (the robot leaving a cell it has claimed), taken from the leader's *ground-truth*
-position. So a follower moves
-as soon as its leader does, and a slow, held or stuck leader simply stops it short: execution is robust to
-delays without any timing assumption.
+position. So a follower moves as soon as its leader does, and a slow, held or stuck leader simply stops it short:
+execution is robust to delays without any timing assumption.
 """
 
 from __future__ import annotations
